@@ -1,0 +1,83 @@
+// One options struct for a whole scene: built from a scene file and parameters, validated once, then
+// handed to Simulation. Field names match the scene-file keys and the node's private parameters.
+#pragma once
+
+#include "cloth_sim/core/contact.h"
+#include "cloth_sim/core/forces.h"
+#include "cloth_sim/core/integrators.h"
+
+#include <Eigen/Core>
+
+#include <array>
+#include <string>
+#include <vector>
+
+namespace cloth_sim {
+
+/// Ranges that validation enforces (and the docs quote).
+struct OptionLimits {
+  static constexpr int kMinGridSide = 2;
+  static constexpr int kMaxGridSide = 512;
+  static constexpr int kMaxSubsteps = 10000;
+  static constexpr double kMaxFrameRateHz = 1000.0;
+  static constexpr double kMaxStiffnessN_per_m = 1e7;
+  static constexpr double kMaxDampingN_s_per_m = 1e4;
+  static constexpr double kMaxWindSpeed_m_per_s = 100.0;
+  static constexpr double kMaxClothSide_m = 100.0;
+  static constexpr double kMaxMass_kg = 1e4;
+};
+
+struct SceneOptions {
+  std::string name = "hanging";
+
+  // Grid, world frame, metres: particle (r, c) at origin + c du u_axis + r dv v_axis.
+  int rows = 20;
+  int cols = 20;
+  double width_m = 1.0;
+  double height_m = 1.0;
+  Eigen::Vector3d origin_m{-0.5, 0.0, 1.5};
+  Eigen::Vector3d u_axis{1.0, 0.0, 0.0};
+  Eigen::Vector3d v_axis{0.0, 0.0, -1.0};
+
+  double mass_kg = 0.5;  ///< whole cloth, shared equally by the particles
+  Eigen::Vector3d gravity_m_per_s2{0.0, 0.0, -9.81};
+
+  /// Indexed by SpringKind.
+  std::array<SpringOptions, kSpringKindCount> springs{{{true, 1000.0, 0.5}, {true, 200.0, 0.1}, {true, 40.0, 0.02}}};
+  double air_damping_N_s_per_m = 0.002;  ///< per particle, paper §3.2
+  bool wind_enabled = false;
+  WindOptions wind;
+
+  /// Pinned particles: "top_left", "top_right", "bottom_left", "bottom_right", "top_edge", "bottom_edge",
+  /// "left_edge", "right_edge", or a particle index as a decimal string.
+  std::vector<std::string> pins{"top_left", "top_right"};
+  /// Pins move by A sin(2 pi t / T) (a curtain rail, a waved flag pole); zero amplitude: fixed.
+  Eigen::Vector3d pin_motion_amplitude_m = Eigen::Vector3d::Zero();
+  double pin_motion_period_s = 1.0;
+
+  ColliderSet colliders;
+  ContactOptions contact;
+
+  double grasp_stiffness_N_per_m = 50.0;  ///< used when a grasp asks for 0
+  double grasp_damping_N_s_per_m = 0.5;
+
+  IntegratorKind integrator = IntegratorKind::kSymplecticEuler;
+  int substeps = 40;            ///< per frame
+  double frame_rate_hz = 50.0;  ///< frames per simulated second; one frame = 1 / frame_rate_hz s
+
+  /// Texture image (PNG/JPEG path) sampled per vertex; empty: the built-in checker pattern.
+  std::string texture;
+
+  double frameDuration_s() const { return 1.0 / frame_rate_hz; }
+  double substep_s() const { return frameDuration_s() / substeps; }
+};
+
+/// Every problem with the options, each naming the field, its value and the allowed range, e.g.
+/// "substeps = 0: must be in [1, 10000]". Empty when the options are valid.
+std::vector<std::string> validateSceneOptions(const SceneOptions& options);
+
+/// Resolves the pin selectors to sorted, unique particle indices; an unknown selector is reported in
+/// *error (and nothing is returned).
+std::vector<int> resolvePins(const std::vector<std::string>& selectors, int rows, int cols, std::string* error);
+
+}  // namespace cloth_sim

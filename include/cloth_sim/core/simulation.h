@@ -1,0 +1,123 @@
+// A cloth scene in motion: options + grid + state + integrator, advanced one frame at a time.
+// Deterministic: no clocks, no threads, no randomness; the same options and inputs give the same bits.
+#pragma once
+
+#include "cloth_sim/core/contact.h"
+#include "cloth_sim/core/forces.h"
+#include "cloth_sim/core/grid.h"
+#include "cloth_sim/core/integrators.h"
+#include "cloth_sim/core/options.h"
+#include "cloth_sim/core/state.h"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace cloth_sim {
+
+/// A request to hold a particle (paper §5). particle = -1: the particle nearest to the target when the
+/// grab starts. stiffness 0: the scene's grasp_stiffness_N_per_m.
+struct GraspRequest {
+  std::uint32_t id = 0;
+  int particle = -1;
+  Eigen::Vector3d target_m = Eigen::Vector3d::Zero();  ///< world frame
+  double stiffness_N_per_m = 0.0;
+  Eigen::Vector3d extra_force_N = Eigen::Vector3d::Zero();
+};
+
+struct EnergyReport {
+  double kinetic_J = 0.0;
+  double potential_J = 0.0;  ///< gravity (relative to z = 0 along -gravity) plus elastic spring energy
+};
+
+/// The outcome of one frame.
+struct FrameReport {
+  bool stable = true;     ///< false: the frame diverged and was rolled back (the state is the previous one)
+  std::string reason;     ///< why it is not OK: empty, a warning, or the divergence
+  ContactStats contacts;  ///< summed over the frame's substeps
+  double max_strain = 0.0;  ///< largest structural stretch (|d| - L) / L after the frame
+};
+
+class Simulation {
+ public:
+  /// A state further than this from the origin (m) counts as diverged.
+  static constexpr double kDivergenceBound_m = 1000.0;
+  /// Structural stretch above this is reported as a warning (the cloth is over-stretched).
+  static constexpr double kStrainWarning = 0.5;
+  /// A grasp target further than this from the origin (m) is refused.
+  static constexpr double kMaxGraspReach_m = 1000.0;
+  static constexpr double kMaxGraspForce_N = 1e4;
+
+  /// options must have passed validateSceneOptions; throws std::invalid_argument otherwise.
+  explicit Simulation(const SceneOptions& options);
+  ~Simulation();
+  Simulation(const Simulation&) = delete;
+  Simulation& operator=(const Simulation&) = delete;
+
+  const SceneOptions& options() const { return options_; }
+  const ClothGrid& grid() const { return grid_; }
+  const ClothState& state() const { return state_; }
+  const std::vector<int>& pinnedParticles() const { return pinned_; }
+  const Eigen::VectorXd& massPerParticle_kg() const { return mass_kg_; }
+
+  /// Advances one frame (options().frameDuration_s()) in options().substeps substeps. If the state
+  /// diverges it is restored to the frame's start and the report says so.
+  FrameReport advanceFrame();
+
+  /// Back to the scene's initial state: grasps released, pins re-hooked. Tuning (retune, wind) is kept.
+  void reset();
+  /// Replaces the whole state (a saved snapshot); false with *error if the particle count differs.
+  bool restoreState(const ClothState& state, std::string* error);
+
+  /// Live tuning: accepts new options when they keep the grid (rows, cols, size, pose, pins and mass
+  /// unchanged) and validate. The state carries on. False with *error otherwise, options unchanged.
+  bool retune(const SceneOptions& options, std::string* error);
+
+  /// Sets the mean wind velocity (world frame, m/s) and switches wind on.
+  void setWindVelocity(const Eigen::Vector3d& wind_m_per_s);
+
+  /// Starts a grasp, or moves the target of an existing one with the same id (the held particle stays).
+  /// False with *error (and nothing changed) for an out-of-range particle or non-finite/absurd values.
+  bool grab(const GraspRequest& request, std::string* error);
+  /// Lets go; false if no grasp has that id.
+  bool release(std::uint32_t id);
+  const std::vector<Grasp>& grasps() const { return grasps_; }
+
+  /// Sphere centres at the current time, world frame (for tf).
+  std::vector<Eigen::Vector3d> sphereCenters() const;
+  /// Per-particle colour (RGB in [0, 1]) from the texture sampler set with setVertexColors, or the
+  /// built-in checker pattern.
+  const Eigen::Matrix3Xf& vertexColors() const { return colors_; }
+  /// Replaces the colours (3 x N); false if the size is wrong.
+  bool setVertexColors(const Eigen::Matrix3Xf& colors);
+
+  EnergyReport energies() const;
+  double maxStructuralStrain() const;
+
+ private:
+  class ClothDynamics;
+
+  void enforcePins(double time_s, ClothState& state) const;
+  int nearestParticle(const Eigen::Vector3d& point_m) const;
+
+  SceneOptions options_;
+  ClothGrid grid_;
+  std::vector<int> pinned_;
+  Eigen::VectorXd mass_kg_;
+  Eigen::VectorXd inverse_mass_per_kg_;  ///< 0 for pinned particles
+  ClothState state_;
+  ClothState frame_start_;               ///< rollback point, scratch
+  Eigen::Matrix3Xd substep_start_positions_m_;  ///< scratch for the contact sweep
+  std::vector<Grasp> grasps_;
+  Eigen::Matrix3Xf colors_;
+  std::unique_ptr<Integrator> integrator_;
+  std::unique_ptr<ClothDynamics> dynamics_;
+};
+
+/// The built-in texture: a two-colour checker of 8 x 8 squares over uv, RGB in [0, 1].
+Eigen::Matrix3Xf checkerColors(const Eigen::Matrix2Xd& uv);
+
+}  // namespace cloth_sim

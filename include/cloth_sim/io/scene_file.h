@@ -1,0 +1,35 @@
+// Scene files: YAML maps whose keys are the SceneOptions fields (the same names as the node's private
+// parameters). ROS-free; the node feeds its parameters through applySceneYaml too, so a file and a
+// parameter are read by one parser and validated by one function.
+#pragma once
+
+#include "cloth_sim/core/options.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <string>
+#include <vector>
+
+namespace cloth_sim {
+
+/// Every key a scene map may hold.
+const std::vector<std::string>& sceneKeys();
+
+/// Overlays the keys of `map` onto *options. `source` prefixes each error ("scene file x.yaml",
+/// "parameter"). Unknown keys and wrong types are errors that name the key, the value and what was
+/// expected. Returns true when there were none; *options then holds the overlay (not yet validated).
+bool applySceneYaml(const YAML::Node& map, const std::string& source, SceneOptions* options,
+                    std::vector<std::string>* errors);
+
+/// A built-in scene name ("flag") maps to <scenes_dir>/flag.yaml; anything with a '/' or ending in
+/// .yaml/.yml is taken as a path.
+std::string resolveScenePath(const std::string& name_or_path, const std::string& scenes_dir);
+
+/// Names of the built-in scenes: the .yaml files in scenes_dir, sorted.
+std::vector<std::string> builtinSceneNames(const std::string& scenes_dir);
+
+/// Reads a scene file on top of the defaults and validates the result. A relative texture path is taken
+/// relative to the file's folder. False with every problem in *errors.
+bool loadSceneFile(const std::string& path, SceneOptions* options, std::vector<std::string>* errors);
+
+}  // namespace cloth_sim

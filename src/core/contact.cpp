@@ -1,0 +1,278 @@
+#include "cloth_sim/core/contact.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace cloth_sim {
+
+namespace {
+
+constexpr double kTwoPi = 6.283185307179586;
+/// Below this a direction is undefined, m; a particle at a sphere's centre is pushed out along +z.
+constexpr double kTinyLength_m = 1e-12;
+
+/// Where a particle stood against one collider at the start and end of a substep.
+enum class Crossing { kNone, kSwept, kPenetrated };
+
+/// Beyond the band at the end of the substep: a sweep hit if it started outside, else a penetration.
+Crossing classifyDeep(double start_distance_m, double end_distance_m, double depth_m) {
+  if (end_distance_m >= -depth_m) return Crossing::kNone;
+  return start_distance_m >= 0.0 ? Crossing::kSwept : Crossing::kPenetrated;
+}
+
+void count(Crossing crossing, ContactStats& stats) {
+  if (crossing == Crossing::kSwept) ++stats.swept_hits;
+  if (crossing == Crossing::kPenetrated) ++stats.penetrations;
+}
+
+/// Applies the response to velocity v (world frame) against a collider surface moving at
+/// surface_velocity, if v approaches it. Returns true if it did.
+bool respond(const Eigen::Vector3d& normal, const Eigen::Vector3d& surface_velocity_m_per_s,
+             const ContactOptions& options, Eigen::Ref<Eigen::Vector3d> velocity_m_per_s) {
+  const Eigen::Vector3d relative = velocity_m_per_s - surface_velocity_m_per_s;
+  if (relative.dot(normal) >= 0.0) return false;
+  velocity_m_per_s = surface_velocity_m_per_s + collisionResponse(relative, normal, options);
+  return true;
+}
+
+/// The first s in [0, 1] where |start + s * delta| = radius, for a segment starting outside the sphere.
+double sphereEntry(const Eigen::Vector3d& start, const Eigen::Vector3d& delta, double radius_m) {
+  const double a = delta.squaredNorm();
+  const double b = start.dot(delta);
+  const double c = start.squaredNorm() - radius_m * radius_m;
+  const double discriminant = std::max(0.0, b * b - a * c);
+  return std::clamp((-b - std::sqrt(discriminant)) / a, 0.0, 1.0);
+}
+
+/// Closest distance from the origin to the segment start + s * delta, s in [0, 1].
+double segmentDistanceToOrigin(const Eigen::Vector3d& start, const Eigen::Vector3d& delta) {
+  const double a = delta.squaredNorm();
+  const double s = a > 0.0 ? std::clamp(-start.dot(delta) / a, 0.0, 1.0) : 0.0;
+  return (start + s * delta).norm();
+}
+
+/// Outward normal of a box at a point: away from the nearest surface point outside, or the face of least
+/// penetration inside.
+Eigen::Vector3d boxNormal(const BoxCollider& box, const Eigen::Vector3d& point_m) {
+  const Eigen::Vector3d clamped = point_m.cwiseMax(box.min_m).cwiseMin(box.max_m);
+  const Eigen::Vector3d outside = point_m - clamped;
+  if (outside.norm() > kTinyLength_m) return outside.normalized();
+  double best_m = std::numeric_limits<double>::infinity();
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+  for (int axis = 0; axis < 3; ++axis) {
+    const double to_min = point_m[axis] - box.min_m[axis];
+    const double to_max = box.max_m[axis] - point_m[axis];
+    if (to_min < best_m) {
+      best_m = to_min;
+      normal = -Eigen::Vector3d::Unit(axis);
+    }
+    if (to_max < best_m) {
+      best_m = to_max;
+      normal = Eigen::Vector3d::Unit(axis);
+    }
+  }
+  return normal;
+}
+
+/// Slab test of the segment start -> end against a box: true with the entry parameter and the entry
+/// face's outward normal if the segment enters it within [0, 1] from outside.
+bool boxEntry(const BoxCollider& box, const Eigen::Vector3d& start, const Eigen::Vector3d& end, double* entry,
+              Eigen::Vector3d* normal) {
+  const Eigen::Vector3d delta = end - start;
+  double enter = 0.0;
+  double leave = 1.0;
+  int enter_axis = -1;
+  double enter_sign = 1.0;
+  for (int axis = 0; axis < 3; ++axis) {
+    if (std::abs(delta[axis]) < kTinyLength_m) {
+      if (start[axis] < box.min_m[axis] || start[axis] > box.max_m[axis]) return false;
+      continue;
+    }
+    double near = (box.min_m[axis] - start[axis]) / delta[axis];
+    double far = (box.max_m[axis] - start[axis]) / delta[axis];
+    double sign = -1.0;  // entering through the min face
+    if (near > far) {
+      std::swap(near, far);
+      sign = 1.0;
+    }
+    if (near > enter) {
+      enter = near;
+      enter_axis = axis;
+      enter_sign = sign;
+    }
+    leave = std::min(leave, far);
+    if (enter > leave) return false;
+  }
+  if (enter_axis < 0) return false;  // started inside
+  *entry = enter;
+  *normal = enter_sign * Eigen::Vector3d::Unit(enter_axis);
+  return true;
+}
+
+void resolvePlane(const PlaneCollider& plane, const ContactOptions& options, const Eigen::VectorXd& inverse_mass,
+                  const Eigen::Matrix3Xd& previous, Eigen::Matrix3Xd& positions, Eigen::Matrix3Xd& velocities,
+                  ContactStats& stats) {
+  const Eigen::Vector3d still = Eigen::Vector3d::Zero();
+  for (Eigen::Index i = 0; i < positions.cols(); ++i) {
+    if (inverse_mass[i] == 0.0) continue;
+    const double distance_m = signedDistance(plane, positions.col(i));
+    if (distance_m > options.depth_m) continue;
+    const Crossing crossing = classifyDeep(signedDistance(plane, previous.col(i)), distance_m, options.depth_m);
+    const bool approaching = respond(plane.normal, still, options, velocities.col(i));
+    if (crossing != Crossing::kNone || (approaching && distance_m < 0.0)) {
+      positions.col(i) -= distance_m * plane.normal;
+    }
+    count(crossing, stats);
+    if (crossing == Crossing::kNone && approaching) ++stats.band_collisions;
+  }
+}
+
+void resolveSphere(const SphereCollider& sphere, const ContactOptions& options, double t0_s, double t1_s,
+                   const Eigen::VectorXd& inverse_mass, const Eigen::Matrix3Xd& previous, Eigen::Matrix3Xd& positions,
+                   Eigen::Matrix3Xd& velocities, ContactStats& stats) {
+  const Eigen::Vector3d center0 = sphere.centerAt(t0_s);
+  const Eigen::Vector3d center1 = sphere.centerAt(t1_s);
+  const Eigen::Vector3d surface_velocity = sphere.velocityAt(t1_s);
+  const double radius = sphere.radius_m;
+  for (Eigen::Index i = 0; i < positions.cols(); ++i) {
+    if (inverse_mass[i] == 0.0) continue;
+    // In the sphere's own (translating) frame the sphere stands still and the particle moves start -> end.
+    const Eigen::Vector3d start = previous.col(i) - center0;
+    const Eigen::Vector3d end = positions.col(i) - center1;
+    const double start_distance = start.norm() - radius;
+    const double end_distance = end.norm() - radius;
+    const bool tunnelled = start_distance >= 0.0 && end_distance >= -options.depth_m &&
+                           segmentDistanceToOrigin(start, end - start) < radius - options.depth_m;
+    Crossing crossing = classifyDeep(start_distance, end_distance, options.depth_m);
+    if (tunnelled) crossing = Crossing::kSwept;
+    if (crossing == Crossing::kNone && end_distance > options.depth_m) continue;
+
+    Eigen::Vector3d normal;
+    if (crossing == Crossing::kSwept) {
+      // Put it back where it first met the surface, in the sphere's frame, so it cannot come out the far side.
+      normal = (start + sphereEntry(start, end - start, radius) * (end - start)).normalized();
+    } else {
+      normal = end.norm() > kTinyLength_m ? Eigen::Vector3d(end / end.norm()) : Eigen::Vector3d::UnitZ();
+    }
+    const bool approaching = respond(normal, surface_velocity, options, velocities.col(i));
+    if (crossing != Crossing::kNone || (approaching && end_distance < 0.0)) {
+      positions.col(i) = center1 + radius * normal;
+    }
+    count(crossing, stats);
+    if (crossing == Crossing::kNone && approaching) ++stats.band_collisions;
+  }
+}
+
+void resolveBox(const BoxCollider& box, const ContactOptions& options, const Eigen::VectorXd& inverse_mass,
+                const Eigen::Matrix3Xd& previous, Eigen::Matrix3Xd& positions, Eigen::Matrix3Xd& velocities,
+                ContactStats& stats) {
+  const Eigen::Vector3d still = Eigen::Vector3d::Zero();
+  for (Eigen::Index i = 0; i < positions.cols(); ++i) {
+    if (inverse_mass[i] == 0.0) continue;
+    const Eigen::Vector3d start = previous.col(i);
+    const Eigen::Vector3d end = positions.col(i);
+    const double start_distance = signedDistance(box, start);
+    const double end_distance = signedDistance(box, end);
+    double entry = 0.0;
+    Eigen::Vector3d entry_normal;
+    const bool entered = start_distance >= 0.0 && boxEntry(box, start, end, &entry, &entry_normal);
+    Crossing crossing = classifyDeep(start_distance, end_distance, options.depth_m);
+    if (entered && end_distance > 0.0) crossing = Crossing::kSwept;  // went in and out within the substep
+    if (crossing == Crossing::kNone && end_distance > options.depth_m) continue;
+
+    if (crossing == Crossing::kSwept && entered) {
+      respond(entry_normal, still, options, velocities.col(i));
+      positions.col(i) = start + entry * (end - start);
+    } else {
+      const Eigen::Vector3d normal = boxNormal(box, end);
+      const bool approaching = respond(normal, still, options, velocities.col(i));
+      if (crossing != Crossing::kNone || (approaching && end_distance < 0.0)) {
+        positions.col(i) = end - end_distance * normal;
+      }
+      if (crossing == Crossing::kNone && approaching) ++stats.band_collisions;
+    }
+    count(crossing, stats);
+  }
+}
+
+}  // namespace
+
+Eigen::Vector3d SphereCollider::centerAt(double time_s) const {
+  return center_m + velocity_m_per_s * time_s +
+         oscillation_amplitude_m * std::sin(kTwoPi * time_s / oscillation_period_s);
+}
+
+Eigen::Vector3d SphereCollider::velocityAt(double time_s) const {
+  const double angular_rate = kTwoPi / oscillation_period_s;
+  return velocity_m_per_s + oscillation_amplitude_m * angular_rate * std::cos(angular_rate * time_s);
+}
+
+ContactStats& ContactStats::operator+=(const ContactStats& other) {
+  band_collisions += other.band_collisions;
+  penetrations += other.penetrations;
+  swept_hits += other.swept_hits;
+  return *this;
+}
+
+double signedDistance(const PlaneCollider& plane, const Eigen::Vector3d& point_m) {
+  return plane.normal.dot(point_m) + plane.offset_m;
+}
+
+double signedDistance(const SphereCollider& sphere, const Eigen::Vector3d& center_m, const Eigen::Vector3d& point_m) {
+  return (point_m - center_m).norm() - sphere.radius_m;
+}
+
+double signedDistance(const BoxCollider& box, const Eigen::Vector3d& point_m) {
+  const Eigen::Vector3d below = box.min_m - point_m;
+  const Eigen::Vector3d above = point_m - box.max_m;
+  const Eigen::Vector3d gap = below.cwiseMax(above);  // per axis: > 0 outside that slab
+  const double largest = gap.maxCoeff();
+  if (largest <= 0.0) return largest;  // inside: minus the distance to the nearest face
+  return gap.cwiseMax(0.0).norm();
+}
+
+Eigen::Vector3d collisionResponse(const Eigen::Vector3d& relative_velocity_m_per_s, const Eigen::Vector3d& normal,
+                                  const ContactOptions& options) {
+  const double normal_speed = relative_velocity_m_per_s.dot(normal);  // < 0: approaching
+  const Eigen::Vector3d tangential = relative_velocity_m_per_s - normal_speed * normal;
+  const double normal_change = (1.0 + options.restitution) * -normal_speed;
+  const double tangential_speed = tangential.norm();
+  // Coulomb: the tangential speed drops by at most mu times the normal velocity change, never reversing.
+  const double kept = tangential_speed > 0.0
+                          ? std::max(0.0, 1.0 - options.friction * normal_change / tangential_speed)
+                          : 0.0;
+  return kept * tangential - options.restitution * normal_speed * normal;
+}
+
+ContactStats resolveContacts(const ColliderSet& colliders, const ContactOptions& options, double t0_s, double t1_s,
+                             const Eigen::VectorXd& inverse_mass_per_kg, const Eigen::Matrix3Xd& previous_positions_m,
+                             Eigen::Matrix3Xd& positions_m, Eigen::Matrix3Xd& velocities_m_per_s) {
+  ContactStats stats;
+  for (const PlaneCollider& plane : colliders.planes) {
+    resolvePlane(plane, options, inverse_mass_per_kg, previous_positions_m, positions_m, velocities_m_per_s, stats);
+  }
+  for (const BoxCollider& box : colliders.boxes) {
+    resolveBox(box, options, inverse_mass_per_kg, previous_positions_m, positions_m, velocities_m_per_s, stats);
+  }
+  for (const SphereCollider& sphere : colliders.spheres) {
+    resolveSphere(sphere, options, t0_s, t1_s, inverse_mass_per_kg, previous_positions_m, positions_m,
+                  velocities_m_per_s, stats);
+  }
+  return stats;
+}
+
+double maxPenetration(const ColliderSet& colliders, double time_s, const Eigen::Matrix3Xd& positions_m) {
+  double deepest_m = 0.0;
+  for (Eigen::Index i = 0; i < positions_m.cols(); ++i) {
+    const Eigen::Vector3d point = positions_m.col(i);
+    for (const PlaneCollider& plane : colliders.planes) deepest_m = std::max(deepest_m, -signedDistance(plane, point));
+    for (const BoxCollider& box : colliders.boxes) deepest_m = std::max(deepest_m, -signedDistance(box, point));
+    for (const SphereCollider& sphere : colliders.spheres) {
+      deepest_m = std::max(deepest_m, -signedDistance(sphere, sphere.centerAt(time_s), point));
+    }
+  }
+  return deepest_m;
+}
+
+}  // namespace cloth_sim

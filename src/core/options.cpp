@@ -1,0 +1,170 @@
+#include "cloth_sim/core/options.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace cloth_sim {
+
+namespace {
+
+/// How far from unit length an axis or normal may be, and how far from orthogonal two axes may be.
+constexpr double kUnitTolerance = 1e-6;
+/// Colliders and cloth must sit within this distance of the origin, m.
+constexpr double kMaxCoordinate_m = 1000.0;
+
+class Problems {
+ public:
+  template <typename T>
+  void inRange(const std::string& field, T value, T low, T high) {
+    if (std::isfinite(static_cast<double>(value)) && value >= low && value <= high) return;
+    std::ostringstream out;
+    out << field << " = " << value << ": must be in [" << low << ", " << high << "]";
+    list_.push_back(out.str());
+  }
+
+  void positive(const std::string& field, double value, double high) {
+    if (std::isfinite(value) && value > 0.0 && value <= high) return;
+    std::ostringstream out;
+    out << field << " = " << value << ": must be in (0, " << high << "]";
+    list_.push_back(out.str());
+  }
+
+  void finiteVector(const std::string& field, const Eigen::Vector3d& value, double bound) {
+    if (value.allFinite() && value.cwiseAbs().maxCoeff() <= bound) return;
+    std::ostringstream out;
+    out << field << " = [" << value.transpose() << "]: each component must be finite and within +-" << bound;
+    list_.push_back(out.str());
+  }
+
+  void unitVector(const std::string& field, const Eigen::Vector3d& value) {
+    if (value.allFinite() && std::abs(value.norm() - 1.0) <= kUnitTolerance) return;
+    std::ostringstream out;
+    out << field << " = [" << value.transpose() << "]: must be a unit vector";
+    list_.push_back(out.str());
+  }
+
+  void fail(const std::string& message) { list_.push_back(message); }
+  std::vector<std::string> take() { return std::move(list_); }
+
+ private:
+  std::vector<std::string> list_;
+};
+
+std::string indexed(const std::string& list, std::size_t index, const std::string& field) {
+  return list + "[" + std::to_string(index) + "]." + field;
+}
+
+}  // namespace
+
+std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
+  using L = OptionLimits;
+  Problems problems;
+  if (o.name.empty()) problems.fail("name is empty: a scene needs a name");
+  problems.inRange("rows", o.rows, L::kMinGridSide, L::kMaxGridSide);
+  problems.inRange("cols", o.cols, L::kMinGridSide, L::kMaxGridSide);
+  problems.positive("width", o.width_m, L::kMaxClothSide_m);
+  problems.positive("height", o.height_m, L::kMaxClothSide_m);
+  problems.finiteVector("origin", o.origin_m, kMaxCoordinate_m);
+  problems.unitVector("u_axis", o.u_axis);
+  problems.unitVector("v_axis", o.v_axis);
+  if (o.u_axis.allFinite() && o.v_axis.allFinite() && std::abs(o.u_axis.dot(o.v_axis)) > kUnitTolerance) {
+    problems.fail("u_axis and v_axis: must be orthogonal");
+  }
+  problems.positive("mass", o.mass_kg, L::kMaxMass_kg);
+  problems.finiteVector("gravity", o.gravity_m_per_s2, 1000.0);
+  for (int k = 0; k < kSpringKindCount; ++k) {
+    const std::string kind = springKindName(static_cast<SpringKind>(k));
+    problems.inRange(kind + "_stiffness", o.springs[k].stiffness_N_per_m, 0.0, L::kMaxStiffnessN_per_m);
+    problems.inRange(kind + "_damping", o.springs[k].damping_N_s_per_m, 0.0, L::kMaxDampingN_s_per_m);
+  }
+  problems.inRange("air_damping", o.air_damping_N_s_per_m, 0.0, L::kMaxDampingN_s_per_m);
+  problems.finiteVector("wind", o.wind.velocity_m_per_s, L::kMaxWindSpeed_m_per_s);
+  problems.inRange("wind_coefficient", o.wind.paper_coefficient_N_s_per_m, 0.0, 10.0);
+  problems.inRange("air_density", o.wind.air_density_kg_per_m3, 0.0, 10.0);
+  problems.inRange("drag_coefficient", o.wind.drag_coefficient, 0.0, 10.0);
+  problems.inRange("wind_gust_amplitude", o.wind.gust_amplitude, 0.0, 10.0);
+  problems.positive("wind_gust_period", o.wind.gust_period_s, 1e4);
+
+  std::string pin_error;
+  resolvePins(o.pins, std::max(o.rows, 2), std::max(o.cols, 2), &pin_error);
+  if (!pin_error.empty()) problems.fail(pin_error);
+  problems.finiteVector("pin_motion_amplitude", o.pin_motion_amplitude_m, kMaxCoordinate_m);
+  problems.positive("pin_motion_period", o.pin_motion_period_s, 1e4);
+
+  for (std::size_t i = 0; i < o.colliders.planes.size(); ++i) {
+    problems.unitVector(indexed("planes", i, "normal"), o.colliders.planes[i].normal);
+    problems.inRange(indexed("planes", i, "offset"), o.colliders.planes[i].offset_m, -kMaxCoordinate_m,
+                     kMaxCoordinate_m);
+  }
+  for (std::size_t i = 0; i < o.colliders.spheres.size(); ++i) {
+    const SphereCollider& s = o.colliders.spheres[i];
+    problems.finiteVector(indexed("spheres", i, "center"), s.center_m, kMaxCoordinate_m);
+    problems.positive(indexed("spheres", i, "radius"), s.radius_m, L::kMaxClothSide_m);
+    problems.finiteVector(indexed("spheres", i, "velocity"), s.velocity_m_per_s, L::kMaxWindSpeed_m_per_s);
+    problems.finiteVector(indexed("spheres", i, "amplitude"), s.oscillation_amplitude_m, kMaxCoordinate_m);
+    problems.positive(indexed("spheres", i, "period"), s.oscillation_period_s, 1e4);
+  }
+  for (std::size_t i = 0; i < o.colliders.boxes.size(); ++i) {
+    const BoxCollider& b = o.colliders.boxes[i];
+    problems.finiteVector(indexed("boxes", i, "min"), b.min_m, kMaxCoordinate_m);
+    problems.finiteVector(indexed("boxes", i, "max"), b.max_m, kMaxCoordinate_m);
+    if ((b.max_m - b.min_m).minCoeff() <= 0.0) problems.fail(indexed("boxes", i, "max") + ": must exceed min on every axis");
+  }
+  problems.inRange("contact_depth", o.contact.depth_m, 0.0, 1.0);
+  problems.inRange("restitution", o.contact.restitution, 0.0, 1.0);
+  problems.inRange("friction", o.contact.friction, 0.0, 10.0);
+  problems.inRange("grasp_stiffness", o.grasp_stiffness_N_per_m, 0.0, L::kMaxStiffnessN_per_m);
+  problems.inRange("grasp_damping", o.grasp_damping_N_s_per_m, 0.0, L::kMaxDampingN_s_per_m);
+  problems.inRange("substeps", o.substeps, 1, L::kMaxSubsteps);
+  problems.positive("frame_rate", o.frame_rate_hz, L::kMaxFrameRateHz);
+  return problems.take();
+}
+
+std::vector<int> resolvePins(const std::vector<std::string>& selectors, int rows, int cols, std::string* error) {
+  std::vector<int> pins;
+  const auto edge = [&](int first_row, int last_row, int first_col, int last_col) {
+    for (int r = first_row; r <= last_row; ++r)
+      for (int c = first_col; c <= last_col; ++c) pins.push_back(r * cols + c);
+  };
+  for (const std::string& selector : selectors) {
+    if (selector == "top_left") {
+      pins.push_back(0);
+    } else if (selector == "top_right") {
+      pins.push_back(cols - 1);
+    } else if (selector == "bottom_left") {
+      pins.push_back((rows - 1) * cols);
+    } else if (selector == "bottom_right") {
+      pins.push_back(rows * cols - 1);
+    } else if (selector == "top_edge") {
+      edge(0, 0, 0, cols - 1);
+    } else if (selector == "bottom_edge") {
+      edge(rows - 1, rows - 1, 0, cols - 1);
+    } else if (selector == "left_edge") {
+      edge(0, rows - 1, 0, 0);
+    } else if (selector == "right_edge") {
+      edge(0, rows - 1, cols - 1, cols - 1);
+    } else {
+      std::size_t used = 0;
+      long index = -1;
+      try {
+        index = std::stol(selector, &used);
+      } catch (const std::exception&) {
+        used = 0;
+      }
+      if (used != selector.size() || selector.empty() || index < 0 || index >= static_cast<long>(rows) * cols) {
+        *error = "pins: '" + selector +
+                 "' is neither a corner/edge name (top_left, top_right, bottom_left, bottom_right, top_edge, "
+                 "bottom_edge, left_edge, right_edge) nor a particle index in [0, " +
+                 std::to_string(rows * cols - 1) + "]";
+        return {};
+      }
+      pins.push_back(static_cast<int>(index));
+    }
+  }
+  std::sort(pins.begin(), pins.end());
+  pins.erase(std::unique(pins.begin(), pins.end()), pins.end());
+  return pins;
+}
+
+}  // namespace cloth_sim

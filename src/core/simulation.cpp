@@ -1,0 +1,265 @@
+#include "cloth_sim/core/simulation.h"
+
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+namespace cloth_sim {
+
+namespace {
+
+constexpr double kTwoPi = 6.283185307179586;
+/// Squares of the built-in checker per side of the cloth.
+constexpr int kCheckerSquares = 8;
+
+bool sameGrid(const SceneOptions& a, const SceneOptions& b) {
+  return a.rows == b.rows && a.cols == b.cols && a.width_m == b.width_m && a.height_m == b.height_m &&
+         a.origin_m == b.origin_m && a.u_axis == b.u_axis && a.v_axis == b.v_axis && a.pins == b.pins &&
+         a.mass_kg == b.mass_kg;
+}
+
+}  // namespace
+
+/// The cloth's right-hand side: sums the switched-on force kernels and divides by mass.
+class Simulation::ClothDynamics final : public Dynamics {
+ public:
+  explicit ClothDynamics(const Simulation& simulation) : sim_(simulation) {}
+
+  void acceleration(const Eigen::Matrix3Xd& positions_m, const Eigen::Matrix3Xd& velocities_m_per_s, double time_s,
+                    Eigen::Matrix3Xd& accelerations_m_per_s2) const override {
+    const SceneOptions& o = sim_.options_;
+    forces_N_.setZero(3, positions_m.cols());
+    for (int k = 0; k < kSpringKindCount; ++k) {
+      if (!o.springs[k].enabled) continue;
+      accumulateSpringForces(sim_.grid_.springs[k], o.springs[k], positions_m, velocities_m_per_s, forces_N_);
+    }
+    if (!o.gravity_m_per_s2.isZero()) accumulateGravity(sim_.mass_kg_, o.gravity_m_per_s2, forces_N_);
+    if (o.air_damping_N_s_per_m > 0.0) accumulateAirDamping(o.air_damping_N_s_per_m, velocities_m_per_s, forces_N_);
+    if (o.wind_enabled) {
+      accumulateWindForces(sim_.grid_.triangles, o.wind, windVelocityAt(o.wind, time_s), positions_m,
+                           velocities_m_per_s, forces_N_);
+    }
+    if (!sim_.grasps_.empty()) accumulateGraspForces(sim_.grasps_, positions_m, velocities_m_per_s, forces_N_);
+    accelerations_m_per_s2.noalias() = forces_N_ * sim_.inverse_mass_per_kg_.asDiagonal();
+  }
+
+ private:
+  const Simulation& sim_;
+  mutable Eigen::Matrix3Xd forces_N_;  ///< scratch, reused across calls
+};
+
+Simulation::Simulation(const SceneOptions& options) : options_(options) {
+  const std::vector<std::string> problems = validateSceneOptions(options);
+  if (!problems.empty()) throw std::invalid_argument("invalid scene options: " + problems.front());
+  grid_ = buildClothGrid(options.rows, options.cols, options.width_m, options.height_m, options.origin_m,
+                         options.u_axis, options.v_axis);
+  colors_ = checkerColors(grid_.uv);
+  integrator_ = makeIntegrator(options.integrator);
+  dynamics_ = std::make_unique<ClothDynamics>(*this);
+  reset();
+}
+
+Simulation::~Simulation() = default;
+
+void Simulation::reset() {
+  const int count = grid_.particleCount();
+  std::string unused;
+  pinned_ = resolvePins(options_.pins, grid_.rows, grid_.cols, &unused);
+  mass_kg_ = Eigen::VectorXd::Constant(count, options_.mass_kg / count);
+  inverse_mass_per_kg_ = mass_kg_.cwiseInverse();
+  for (int i : pinned_) inverse_mass_per_kg_[i] = 0.0;
+  grasps_.clear();
+  state_.positions_m = grid_.rest_positions_m;
+  state_.velocities_m_per_s.setZero(3, count);
+  state_.time_s = 0.0;
+  state_.frame = 0;
+  enforcePins(0.0, state_);
+}
+
+bool Simulation::restoreState(const ClothState& state, std::string* error) {
+  if (state.particleCount() != grid_.particleCount() || state.velocities_m_per_s.cols() != state.positions_m.cols()) {
+    *error = "state has " + std::to_string(state.particleCount()) + " particles, the scene " +
+             std::to_string(grid_.particleCount());
+    return false;
+  }
+  state_ = state;
+  return true;
+}
+
+void Simulation::enforcePins(double time_s, ClothState& state) const {
+  const double phase = kTwoPi * time_s / options_.pin_motion_period_s;
+  const Eigen::Vector3d offset_m = options_.pin_motion_amplitude_m * std::sin(phase);
+  const Eigen::Vector3d velocity_m_per_s =
+      options_.pin_motion_amplitude_m * (kTwoPi / options_.pin_motion_period_s) * std::cos(phase);
+  for (int i : pinned_) {
+    if (inverse_mass_per_kg_[i] != 0.0) continue;  // unpinned by a grasp
+    state.positions_m.col(i) = grid_.rest_positions_m.col(i) + offset_m;
+    state.velocities_m_per_s.col(i) = velocity_m_per_s;
+  }
+}
+
+FrameReport Simulation::advanceFrame() {
+  FrameReport report;
+  frame_start_ = state_;
+  const double step_s = options_.substep_s();
+  const double frame_start_s = state_.time_s;
+  for (int k = 0; k < options_.substeps; ++k) {
+    const double t0_s = state_.time_s;
+    if (!options_.colliders.empty()) substep_start_positions_m_ = state_.positions_m;
+    integrator_->step(*dynamics_, step_s, state_);
+    // Times from the frame start, not summed step by step, so frames land exactly on k / frame_rate.
+    state_.time_s = frame_start_s + (k + 1) * step_s;
+    enforcePins(state_.time_s, state_);
+    if (!options_.colliders.empty()) {
+      report.contacts += resolveContacts(options_.colliders, options_.contact, t0_s, state_.time_s,
+                                         inverse_mass_per_kg_, substep_start_positions_m_, state_.positions_m,
+                                         state_.velocities_m_per_s);
+    }
+  }
+  if (!isFiniteAndBounded(state_, kDivergenceBound_m)) {
+    state_ = frame_start_;
+    report.stable = false;
+    std::ostringstream reason;
+    reason << "diverged in frame " << state_.frame + 1 << " (" << integratorName(options_.integrator) << ", "
+           << options_.substeps << " substeps of " << step_s << " s): rolled back to the previous frame";
+    report.reason = reason.str();
+    report.max_strain = maxStructuralStrain();
+    return report;
+  }
+  ++state_.frame;
+  report.max_strain = maxStructuralStrain();
+  if (report.max_strain > kStrainWarning) {
+    std::ostringstream reason;
+    reason << "over-stretched: structural strain " << report.max_strain << " > " << kStrainWarning;
+    report.reason = reason.str();
+  }
+  return report;
+}
+
+bool Simulation::retune(const SceneOptions& options, std::string* error) {
+  if (!sameGrid(options, options_)) {
+    *error = "rows, cols, size, pose, pins and mass cannot change while running: load a scene instead";
+    return false;
+  }
+  const std::vector<std::string> problems = validateSceneOptions(options);
+  if (!problems.empty()) {
+    *error = problems.front();
+    return false;
+  }
+  if (options.integrator != options_.integrator) integrator_ = makeIntegrator(options.integrator);
+  options_ = options;
+  return true;
+}
+
+void Simulation::setWindVelocity(const Eigen::Vector3d& wind_m_per_s) {
+  options_.wind.velocity_m_per_s = wind_m_per_s;
+  options_.wind_enabled = true;
+}
+
+bool Simulation::grab(const GraspRequest& request, std::string* error) {
+  const int count = grid_.particleCount();
+  if (!request.target_m.allFinite() || request.target_m.norm() > kMaxGraspReach_m) {
+    *error = "grasp target must be finite and within " + std::to_string(kMaxGraspReach_m) + " m of the origin";
+    return false;
+  }
+  if (!std::isfinite(request.stiffness_N_per_m) || request.stiffness_N_per_m < 0.0 ||
+      request.stiffness_N_per_m > OptionLimits::kMaxStiffnessN_per_m) {
+    *error = "grasp stiffness " + std::to_string(request.stiffness_N_per_m) + " N/m is outside [0, " +
+             std::to_string(OptionLimits::kMaxStiffnessN_per_m) + "]";
+    return false;
+  }
+  if (!request.extra_force_N.allFinite() || request.extra_force_N.norm() > kMaxGraspForce_N) {
+    *error = "grasp force must be finite and below " + std::to_string(kMaxGraspForce_N) + " N";
+    return false;
+  }
+  if (request.particle < -1 || request.particle >= count) {
+    *error = "grasp particle " + std::to_string(request.particle) + " is outside [-1, " + std::to_string(count - 1) + "]";
+    return false;
+  }
+  const double stiffness =
+      request.stiffness_N_per_m > 0.0 ? request.stiffness_N_per_m : options_.grasp_stiffness_N_per_m;
+  for (Grasp& grasp : grasps_) {
+    if (grasp.id != request.id) continue;
+    grasp.target_m = request.target_m;  // dragging: the held particle stays the same
+    grasp.stiffness_N_per_m = stiffness;
+    grasp.extra_force_N = request.extra_force_N;
+    return true;
+  }
+  Grasp grasp;
+  grasp.id = request.id;
+  grasp.particle = request.particle >= 0 ? request.particle : nearestParticle(request.target_m);
+  grasp.target_m = request.target_m;
+  grasp.stiffness_N_per_m = stiffness;
+  grasp.damping_N_s_per_m = options_.grasp_damping_N_s_per_m;
+  grasp.extra_force_N = request.extra_force_N;
+  // A held pin comes off its hook (paper: pins move only when grasped or driven); reset() re-pins it.
+  inverse_mass_per_kg_[grasp.particle] = 1.0 / mass_kg_[grasp.particle];
+  grasps_.push_back(grasp);
+  return true;
+}
+
+bool Simulation::release(std::uint32_t id) {
+  for (auto it = grasps_.begin(); it != grasps_.end(); ++it) {
+    if (it->id != id) continue;
+    grasps_.erase(it);
+    return true;
+  }
+  return false;
+}
+
+int Simulation::nearestParticle(const Eigen::Vector3d& point_m) const {
+  int nearest = 0;
+  double best_m2 = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < state_.particleCount(); ++i) {
+    const double d2 = (state_.positions_m.col(i) - point_m).squaredNorm();
+    if (d2 < best_m2) {
+      best_m2 = d2;
+      nearest = i;
+    }
+  }
+  return nearest;
+}
+
+std::vector<Eigen::Vector3d> Simulation::sphereCenters() const {
+  std::vector<Eigen::Vector3d> centers;
+  centers.reserve(options_.colliders.spheres.size());
+  for (const SphereCollider& sphere : options_.colliders.spheres) centers.push_back(sphere.centerAt(state_.time_s));
+  return centers;
+}
+
+bool Simulation::setVertexColors(const Eigen::Matrix3Xf& colors) {
+  if (colors.cols() != grid_.particleCount()) return false;
+  colors_ = colors;
+  return true;
+}
+
+EnergyReport Simulation::energies() const {
+  EnergyReport report;
+  report.kinetic_J = 0.5 * (state_.velocities_m_per_s.colwise().squaredNorm().transpose().cwiseProduct(mass_kg_)).sum();
+  report.potential_J = -(options_.gravity_m_per_s2.transpose() * state_.positions_m * mass_kg_)(0);
+  for (int k = 0; k < kSpringKindCount; ++k) {
+    if (!options_.springs[k].enabled) continue;
+    report.potential_J += springPotentialEnergy(grid_.springs[k], options_.springs[k], state_.positions_m);
+  }
+  return report;
+}
+
+double Simulation::maxStructuralStrain() const {
+  return maxSpringStrain(grid_.springsOf(SpringKind::kStructural), state_.positions_m);
+}
+
+Eigen::Matrix3Xf checkerColors(const Eigen::Matrix2Xd& uv) {
+  const Eigen::Vector3f light(0.93f, 0.86f, 0.62f);
+  const Eigen::Vector3f dark(0.72f, 0.16f, 0.16f);
+  Eigen::Matrix3Xf colors(3, uv.cols());
+  for (Eigen::Index i = 0; i < uv.cols(); ++i) {
+    // 0.999 keeps u = 1 in the last square rather than starting a ninth.
+    const int square_u = static_cast<int>(uv(0, i) * 0.999 * kCheckerSquares);
+    const int square_v = static_cast<int>(uv(1, i) * 0.999 * kCheckerSquares);
+    colors.col(i) = ((square_u + square_v) % 2 == 0) ? light : dark;
+  }
+  return colors;
+}
+
+}  // namespace cloth_sim

@@ -1,0 +1,50 @@
+#include "cloth_sim/io/texture.h"
+
+#include <stb_image.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+
+namespace cloth_sim {
+
+namespace {
+
+constexpr int kChannels = 3;  // RGB; stb converts grey and RGBA for us
+constexpr float kByteToUnit = 1.0f / 255.0f;
+
+}  // namespace
+
+bool sampleTextureImage(const std::string& path, const Eigen::Matrix2Xd& uv, Eigen::Matrix3Xf* colors,
+                        std::string* error) {
+  int width = 0;
+  int height = 0;
+  int channels_in_file = 0;
+  std::unique_ptr<unsigned char, void (*)(void*)> pixels(
+      stbi_load(path.c_str(), &width, &height, &channels_in_file, kChannels), stbi_image_free);
+  if (!pixels) {
+    *error = "texture " + path + ": " + (stbi_failure_reason() ? stbi_failure_reason() : "cannot be read");
+    return false;
+  }
+  const auto texel = [&](int x, int y) {
+    const unsigned char* p = pixels.get() + (static_cast<std::size_t>(y) * width + x) * kChannels;
+    return Eigen::Vector3f(p[0], p[1], p[2]) * kByteToUnit;
+  };
+  colors->resize(3, uv.cols());
+  for (Eigen::Index i = 0; i < uv.cols(); ++i) {
+    // u = 0 and u = 1 fall on the first and last texel centres; outside [0, 1] clamps.
+    const double x = std::clamp(uv(0, i), 0.0, 1.0) * (width - 1);
+    const double y = std::clamp(uv(1, i), 0.0, 1.0) * (height - 1);
+    const int x0 = static_cast<int>(std::floor(x));
+    const int y0 = static_cast<int>(std::floor(y));
+    const int x1 = std::min(x0 + 1, width - 1);
+    const int y1 = std::min(y0 + 1, height - 1);
+    const float fx = static_cast<float>(x - x0);
+    const float fy = static_cast<float>(y - y0);
+    colors->col(i) = (1 - fy) * ((1 - fx) * texel(x0, y0) + fx * texel(x1, y0)) +
+                     fy * ((1 - fx) * texel(x0, y1) + fx * texel(x1, y1));
+  }
+  return true;
+}
+
+}  // namespace cloth_sim
