@@ -24,9 +24,12 @@ import sys
 import xml.etree.ElementTree as ET
 
 
-def first_line(text, limit=160):
-    text = (text or "").strip()
-    line = text.splitlines()[0] if text else ""
+def first_lines(text, limit=200):
+    """The start of a failure message on one line (gtest puts file:line first, the expectation next)."""
+    parts = [part.strip() for part in (text or "").splitlines() if part.strip()]
+    if any(p.startswith('File "') for p in parts[1:]):
+        parts = parts[:1]  # a Python assertion: its message comes first, the stack after it
+    line = " | ".join(parts)
     return line if len(line) <= limit else line[:limit - 3] + "..."
 
 
@@ -45,8 +48,8 @@ def cases_of(path):
             continue  # DISABLED_ gtests and skips are neither passes nor failures
         bad = [c for c in case if c.tag in ("failure", "error")]
         if bad:
-            reason = bad[0].get("message") or bad[0].text or bad[0].tag
-            out.append((full, True, first_line(reason)))
+            text = bad[0].get("message") or bad[0].text or bad[0].tag
+            out.append((full, True, first_lines(text)))
         else:
             out.append((full, False, ""))
     if not out:
