@@ -125,8 +125,8 @@ def main(argv=None):
 
     bag_times = [m[0] for m in meshes]
     stamps = [m[1] for m in meshes]
-    print("%s: %d messages over %.2f s of bag time: %.1f Hz (header stamps: %.1f Hz)" % (
-        args.topic, len(meshes), bag_times[-1] - bag_times[0], rate(bag_times), rate(stamps)))
+    print("%s publish rate: %.1f Hz (%d messages over %.2f s of bag time; from header stamps: %.1f Hz)" % (
+        args.topic, rate(bag_times), len(meshes), bag_times[-1] - bag_times[0], rate(stamps)))
 
     t_bag, t_stamp, marker = usable[-1]
     if marker.header.frame_id.lstrip("/") != "world":
