@@ -1,0 +1,102 @@
+# cloth_sim developer entry points, for a fresh Debian 12 machine (as root) and for a working one.
+#
+#   make deps    install the Debian packages below that are missing (apt-get runs only if one is)
+#   make build   catkin_make in a private workspace outside the repo: $(WS) (override: make build WS=...)
+#   make test    build, run every gtest and rostest, print the failing cases and "N passed, N failed"
+#   make demo    build, run cloth.launch headless for DEMO_SECONDS s recording a bag, render the last mesh
+#                to a PNG and print the mesh publish rate (make demo SCENE=flag)
+#   make clean   remove the private workspace and the demo outputs
+#
+# Cloned into an existing catkin workspace's src/ instead? Then catkin_make there as usual: nothing in
+# the package assumes the private workspace (or pass WS=/path/to/that/workspace to these targets).
+
+SHELL := /bin/bash
+.SHELLFLAGS := -eu -o pipefail -c
+.DEFAULT_GOAL := build
+.PHONY: deps build test demo clean help
+
+# Debian 12's own ROS 1 packages (no /opt/ros); this is the one list of what the project needs.
+DEB_PACKAGES := build-essential cmake pkg-config \
+  ros-core-dev libroscpp-dev libtf2-ros-dev libtf2-geometry-msgs-dev ros-visualization-msgs \
+  libvisualization-msgs-dev libgeometry-msgs-dev libstd-srvs-dev libstd-msgs-dev librostest-dev \
+  python3-rostest python3-roslaunch libdynamic-reconfigure-config-init-mutex-dev \
+  python3-dynamic-reconfigure libdiagnostic-updater-dev librosbag-dev python3-rosbag rosbash catkin \
+  python3-catkin-pkg libeigen3-dev libstb-dev libyaml-cpp-dev python3-matplotlib python3-numpy xvfb \
+  libgtest-dev topic-tools python3-rospy rviz
+
+REPO := $(patsubst %/,%,$(dir $(abspath $(lastword $(MAKEFILE_LIST)))))
+# One workspace per clone (keyed by the clone's absolute path), outside the repo: rosrun searches a
+# package's source folder following symlinks, so a workspace inside the repo would be found as copies.
+WS_ROOT ?= $(HOME)/.cache/cloth_sim
+WS ?= $(WS_ROOT)/ws-$(shell printf '%s' '$(REPO)' | sha1sum | cut -c1-10)
+override WS := $(patsubst %/,%,$(abspath $(WS)))
+JOBS ?= $(shell nproc 2>/dev/null || echo 2)
+SCENE ?= hanging
+DEMO_SECONDS ?= 10
+DEMO_DIR ?= $(REPO)/.build/demo
+
+# Debian's ROS tools and catkin's generators are /usr/bin/python3 programs; a python3 found earlier on
+# PATH (pyenv, a virtualenv) lacks the ROS modules. So /usr/bin comes first, and CMake is told too.
+export PATH := /usr/bin:/bin:/usr/sbin:/sbin:$(PATH)
+CATKIN_MAKE := catkin_make -DPYTHON_EXECUTABLE=/usr/bin/python3 -DCMAKE_BUILD_TYPE=Release
+# Logs and the ROS home (rospack cache, roslaunch/rostest logs) stay in the workspace, not in ~/.ros.
+export ROS_HOME := $(WS)/ros_home
+export ROS_LOG_DIR := $(WS)/ros_home/log
+# rostest starts its own master on a random port; nodes must reach it even where the hostname does not
+# resolve (containers, CI).
+ifeq ($(strip $(ROS_HOSTNAME)$(ROS_IP)),)
+export ROS_HOSTNAME := localhost
+endif
+# The sub-makes that catkin_make runs get their -j from the command line below, not from ours.
+unexport MAKEFLAGS
+
+help:
+	@sed -n '1,/^$$/p' $(lastword $(MAKEFILE_LIST)) | sed 's/^# \{0,1\}//'
+
+deps:
+	@installed=" $$({ dpkg-query -W -f='$${db:Status-Abbrev} $${Package}\n' $(DEB_PACKAGES) 2>/dev/null || true; } \
+	  | awk '$$1 == "ii" {printf "%s ", $$2}')"; \
+	missing=""; for p in $(DEB_PACKAGES); do \
+	  case "$$installed" in *" $$p "*) ;; *) missing="$$missing $$p";; esac; \
+	done; \
+	if [ -z "$$missing" ]; then echo "==> deps: all $(words $(DEB_PACKAGES)) Debian packages installed"; exit 0; fi; \
+	echo "==> deps: installing$$missing"; \
+	sudo=""; if [ "$$(id -u)" != 0 ]; then \
+	  if command -v sudo >/dev/null; then sudo="sudo"; else \
+	    echo "deps: not root and no sudo; as root run: apt-get install$$missing" >&2; exit 1; fi; fi; \
+	export DEBIAN_FRONTEND=noninteractive; \
+	$$sudo apt-get update -q; \
+	$$sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -q$$missing
+
+build: deps
+	@mkdir -p $(WS)/src
+	@case "$(REPO)/" in \
+	  "$(WS)/src/"*) ;; \
+	  *) link=$(WS)/src/cloth_sim; \
+	     if [ -e "$$link" ] && [ ! -L "$$link" ]; then \
+	       echo "build: $$link exists and is not a link to this repo; use another WS=" >&2; exit 1; fi; \
+	     [ "$$(readlink "$$link" 2>/dev/null)" = "$(REPO)" ] || ln -sfn "$(REPO)" "$$link";; \
+	esac
+	@echo "==> build: catkin_make in $(WS) (-j$(JOBS))"
+	@cd $(WS) && $(CATKIN_MAKE) -j$(JOBS) -l$(JOBS) 2>&1 | $(FILTER_CMAKE)
+	@echo "==> build: done; to use it: source $(WS)/devel/setup.bash"
+
+# catkin_make repeats CMake's whole configure log on every run; keep the lines that matter.
+FILTER_CMAKE := { grep --line-buffered -v -E '^make\[[0-9]+\]: (Entering|Leaving) directory|^-- (Using|Found|Looking|Detecting|Check|Performing|Call |This workspace|The C|catkin [0-9]|BUILD_SHARED_LIBS|Configuring|Generating|  |~~)|^(Base path|Source space|Build space|Devel space|Install space|\#\#\#\#)' || true; }
+
+test: build
+	@echo "==> test: building the test executables"
+	@cd $(WS) && $(CATKIN_MAKE) -j$(JOBS) -l$(JOBS) tests 2>&1 | $(FILTER_CMAKE)
+	@echo "==> test: running cloth_sim's gtests and rostests, one at a time"
+	@rm -rf $(WS)/build/test_results/cloth_sim
+	@rc=0; (cd $(WS) && $(CATKIN_MAKE) -j1 run_tests_cloth_sim 2>&1 | $(FILTER_CMAKE)) || rc=$$?; \
+	if [ $$rc != 0 ]; then echo "test: catkin_make run_tests_cloth_sim exited with $$rc"; fi; \
+	/usr/bin/python3 $(REPO)/scripts/test_summary.py $(WS)/build/test_results/cloth_sim \
+	  --ctest-file $(WS)/build/cloth_sim/CTestTestfile.cmake || rc=1; \
+	exit $$rc
+
+demo: build
+	@bash $(REPO)/scripts/demo.sh $(WS) $(SCENE) $(DEMO_SECONDS) $(DEMO_DIR)
+
+clean:
+	rm -rf $(WS) $(DEMO_DIR)

@@ -1,0 +1,71 @@
+#!/bin/bash
+# Headless demo: run cloth.launch with recording for a few seconds, stop it with SIGINT (as Ctrl-C would,
+# so rosbag closes the bag), render the last mesh to a PNG and print the mesh publish rate.
+#
+#   scripts/demo.sh WORKSPACE [SCENE] [SECONDS] [OUTDIR]
+#
+# WORKSPACE is a built catkin workspace holding cloth_sim (its devel/setup.bash is sourced). The ROS
+# master runs on a free port of its own, so a demo never talks to another roscore on this machine.
+set -eu -o pipefail
+
+ws=${1:?usage: demo.sh WORKSPACE [SCENE] [SECONDS] [OUTDIR]}
+scene=${2:-hanging}
+seconds=${3:-10}
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+outdir=${4:-$here/../.build/demo}
+mkdir -p "$outdir"
+outdir=$(cd "$outdir" && pwd)
+
+# Debian's ROS tools are /usr/bin/python3 scripts; a pyenv python3 earlier on PATH has no ROS modules.
+export PATH=/usr/bin:/bin:/usr/sbin:/sbin:$PATH
+export MPLBACKEND=Agg
+export ROS_HOME=${ROS_HOME:-$ws/ros_home}
+export ROS_LOG_DIR=${ROS_LOG_DIR:-$ROS_HOME/log}
+if [ -z "${ROS_HOSTNAME:-}" ] && [ -z "${ROS_IP:-}" ]; then export ROS_HOSTNAME=localhost; fi
+set +u
+# shellcheck disable=SC1091
+source "$ws/devel/setup.bash"
+set -u
+
+port=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
+export ROS_MASTER_URI=http://localhost:$port
+
+# A scene may be a path to a YAML file: name the outputs after its stem.
+name=$(basename "$scene"); name=${name%.yaml}; name=${name%.yml}
+bag=$outdir/$name.bag
+png=$outdir/$name.png
+log=$outdir/$name.launch.log
+rm -f "$bag" "$bag.active" "$png"
+
+echo "==> demo: roslaunch cloth_sim cloth.launch scene:=$scene record:=true for ${seconds} s (master port $port)"
+echo "    log: $log"
+set +e
+timeout -s INT -k 30 "$seconds" roslaunch -p "$port" cloth_sim cloth.launch \
+  scene:="$scene" rviz:=false record:=true bag:="$bag" >"$log" 2>&1 </dev/null
+rc=$?
+set -e
+if [ "$rc" -ne 124 ]; then
+  # 124: timeout sent SIGINT after $seconds, the expected end. Anything else: roslaunch ended by itself
+  # (a bad argument, a required node that died) or ignored SIGINT and was killed.
+  echo "demo: roslaunch ended with status $rc before it was stopped; last lines of $log:" >&2
+  tail -n 30 "$log" >&2
+  exit 1
+fi
+if grep -q "process has died" "$log"; then
+  echo "demo: warning: a node died during the run:" >&2
+  grep "process has died" "$log" >&2 || true
+fi
+if [ ! -f "$bag" ] && [ -f "$bag.active" ]; then
+  echo "demo: the bag was not closed cleanly; reindexing $bag.active"
+  rosbag reindex "$bag.active" >/dev/null && mv "$bag.active" "$bag"
+fi
+if [ ! -f "$bag" ]; then
+  echo "demo: no bag at $bag; last lines of $log:" >&2
+  tail -n 30 "$log" >&2
+  exit 1
+fi
+
+echo "==> demo: rendering the last /cloth_node/mesh of $bag"
+/usr/bin/python3 "$here/render_bag.py" "$bag" "$png" --title "cloth_sim: $name"
+echo "bag: $bag"
+echo "PNG: $png"
