@@ -4,7 +4,7 @@
 #include <cmath>
 #include <limits>
 
-namespace cloth_sim {
+namespace cloth_sim::core {
 
 namespace {
 
@@ -275,4 +275,4 @@ double maxPenetration(const ColliderSet& colliders, double time_s, const Eigen::
   return deepest_m;
 }
 
-}  // namespace cloth_sim
+}  // namespace cloth_sim::core

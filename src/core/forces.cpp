@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace cloth_sim {
+namespace cloth_sim::core {
 
 namespace {
 
@@ -112,4 +112,4 @@ double maxSpringStrain(const SpringSet& springs, const Eigen::Matrix3Xd& positio
   return strain;
 }
 
-}  // namespace cloth_sim
+}  // namespace cloth_sim::core

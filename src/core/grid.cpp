@@ -2,7 +2,7 @@
 
 #include <stdexcept>
 
-namespace cloth_sim {
+namespace cloth_sim::core {
 
 const char* springKindName(SpringKind kind) {
   switch (kind) {
@@ -69,4 +69,4 @@ ClothGrid buildClothGrid(int rows, int cols, double width_m, double height_m, co
   return grid;
 }
 
-}  // namespace cloth_sim
+}  // namespace cloth_sim::core

@@ -1,6 +1,6 @@
 #include "cloth_sim/core/integrators.h"
 
-namespace cloth_sim {
+namespace cloth_sim::core {
 
 const std::vector<IntegratorKind>& allIntegratorKinds() {
   static const std::vector<IntegratorKind> kinds{IntegratorKind::kForwardEuler, IntegratorKind::kSymplecticEuler,
@@ -102,4 +102,4 @@ std::unique_ptr<Integrator> makeIntegrator(IntegratorKind kind) {
   return nullptr;
 }
 
-}  // namespace cloth_sim
+}  // namespace cloth_sim::core

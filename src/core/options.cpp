@@ -4,7 +4,7 @@
 #include <cmath>
 #include <sstream>
 
-namespace cloth_sim {
+namespace cloth_sim::core {
 
 namespace {
 
@@ -167,4 +167,4 @@ std::vector<int> resolvePins(const std::vector<std::string>& selectors, int rows
   return pins;
 }
 
-}  // namespace cloth_sim
+}  // namespace cloth_sim::core

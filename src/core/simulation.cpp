@@ -5,7 +5,7 @@
 #include <sstream>
 #include <stdexcept>
 
-namespace cloth_sim {
+namespace cloth_sim::core {
 
 namespace {
 
@@ -262,4 +262,4 @@ Eigen::Matrix3Xf checkerColors(const Eigen::Matrix2Xd& uv) {
   return colors;
 }
 
-}  // namespace cloth_sim
+}  // namespace cloth_sim::core

@@ -1,6 +1,6 @@
 #include "cloth_sim/core/state.h"
 
-namespace cloth_sim {
+namespace cloth_sim::core {
 
 bool isFiniteAndBounded(const ClothState& state, double bound_m) {
   // allFinite() first: a NaN compares false with everything, so the bound alone would not catch it.
@@ -8,4 +8,4 @@ bool isFiniteAndBounded(const ClothState& state, double bound_m) {
          state.positions_m.cwiseAbs().maxCoeff() <= bound_m;
 }
 
-}  // namespace cloth_sim
+}  // namespace cloth_sim::core

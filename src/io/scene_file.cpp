@@ -6,7 +6,7 @@
 #include <map>
 #include <sstream>
 
-namespace cloth_sim {
+namespace cloth_sim::core {
 
 namespace {
 
@@ -246,4 +246,4 @@ bool loadSceneFile(const std::string& path, SceneOptions* options, std::vector<s
   return true;
 }
 
-}  // namespace cloth_sim
+}  // namespace cloth_sim::core

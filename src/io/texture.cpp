@@ -6,7 +6,7 @@
 #include <cmath>
 #include <memory>
 
-namespace cloth_sim {
+namespace cloth_sim::core {
 
 namespace {
 
@@ -47,4 +47,4 @@ bool sampleTextureImage(const std::string& path, const Eigen::Matrix2Xd& uv, Eig
   return true;
 }
 
-}  // namespace cloth_sim
+}  // namespace cloth_sim::core

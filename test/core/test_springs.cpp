@@ -5,7 +5,7 @@
 
 #include <cmath>
 
-namespace cloth_sim {
+namespace cloth_sim::core {
 namespace {
 
 constexpr double kPi = 3.141592653589793;
@@ -127,4 +127,4 @@ TEST(Springs, PinnedParticlesNeverMove) {
 }
 
 }  // namespace
-}  // namespace cloth_sim
+}  // namespace cloth_sim::core

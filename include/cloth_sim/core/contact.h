@@ -21,7 +21,7 @@
 
 #include <vector>
 
-namespace cloth_sim {
+namespace cloth_sim::core {
 
 /// A plane n . x + d = 0 with unit normal n pointing to the free side (world frame).
 struct PlaneCollider {
@@ -88,4 +88,4 @@ ContactStats resolveContacts(const ColliderSet& colliders, const ContactOptions&
 /// The deepest a particle sits inside any collider, m (negative signed distance); 0 when none is inside.
 double maxPenetration(const ColliderSet& colliders, double time_s, const Eigen::Matrix3Xd& positions_m);
 
-}  // namespace cloth_sim
+}  // namespace cloth_sim::core

@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <vector>
 
-namespace cloth_sim {
+namespace cloth_sim::core {
 
 /// One spring kind's constants (paper eq. 1).
 struct SpringOptions {
@@ -82,4 +82,4 @@ double springPotentialEnergy(const SpringSet& springs, const SpringOptions& opti
 /// Largest relative stretch (|d| - L) / L over a spring set (0 for an empty set).
 double maxSpringStrain(const SpringSet& springs, const Eigen::Matrix3Xd& positions_m);
 
-}  // namespace cloth_sim
+}  // namespace cloth_sim::core

@@ -7,7 +7,7 @@
 #include <cstddef>
 #include <vector>
 
-namespace cloth_sim {
+namespace cloth_sim::core {
 
 /// The paper's three spring kinds. Each kind has its own stiffness and damping (SpringOptions).
 enum class SpringKind { kStructural = 0, kShear = 1, kBend = 2 };
@@ -48,4 +48,4 @@ struct ClothGrid {
 ClothGrid buildClothGrid(int rows, int cols, double width_m, double height_m, const Eigen::Vector3d& origin_m,
                          const Eigen::Vector3d& u_axis, const Eigen::Vector3d& v_axis);
 
-}  // namespace cloth_sim
+}  // namespace cloth_sim::core

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-namespace cloth_sim {
+namespace cloth_sim::core {
 
 /// The right-hand side of the ODE x' = v, v' = a(x, v, t). An implicit integrator (later) will also ask
 /// for force Jacobians; they will be added here as further virtual functions.
@@ -88,4 +88,4 @@ class RK4 final : public Integrator {
 
 std::unique_ptr<Integrator> makeIntegrator(IntegratorKind kind);
 
-}  // namespace cloth_sim
+}  // namespace cloth_sim::core

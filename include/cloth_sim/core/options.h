@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-namespace cloth_sim {
+namespace cloth_sim::core {
 
 /// Ranges that validation enforces (and the docs quote).
 struct OptionLimits {
@@ -80,4 +80,4 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& options);
 /// *error (and nothing is returned).
 std::vector<int> resolvePins(const std::vector<std::string>& selectors, int rows, int cols, std::string* error);
 
-}  // namespace cloth_sim
+}  // namespace cloth_sim::core

@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-namespace cloth_sim {
+namespace cloth_sim::core {
 
 /// A request to hold a particle (paper §5). particle = -1: the particle nearest to the target when the
 /// grab starts. stiffness 0: the scene's grasp_stiffness_N_per_m.
@@ -120,4 +120,4 @@ class Simulation {
 /// The built-in texture: a two-colour checker of 8 x 8 squares over uv, RGB in [0, 1].
 Eigen::Matrix3Xf checkerColors(const Eigen::Matrix2Xd& uv);
 
-}  // namespace cloth_sim
+}  // namespace cloth_sim::core

@@ -5,7 +5,7 @@
 
 #include <cstdint>
 
-namespace cloth_sim {
+namespace cloth_sim::core {
 
 /// Everything an integrator advances, and nothing else. Forces, normals and contact data are scratch
 /// that is recomputed from this, so copying a ClothState is a complete snapshot (save/restore, rollback).
@@ -22,4 +22,4 @@ struct ClothState {
 /// origin (a diverging explicit integrator leaves such a box long before it overflows).
 bool isFiniteAndBounded(const ClothState& state, double bound_m);
 
-}  // namespace cloth_sim
+}  // namespace cloth_sim::core

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-namespace cloth_sim {
+namespace cloth_sim::core {
 
 /// Every key a scene map may hold.
 const std::vector<std::string>& sceneKeys();
@@ -32,4 +32,4 @@ std::vector<std::string> builtinSceneNames(const std::string& scenes_dir);
 /// relative to the file's folder. False with every problem in *errors.
 bool loadSceneFile(const std::string& path, SceneOptions* options, std::vector<std::string>* errors);
 
-}  // namespace cloth_sim
+}  // namespace cloth_sim::core

@@ -6,11 +6,11 @@
 
 #include <string>
 
-namespace cloth_sim {
+namespace cloth_sim::core {
 
 /// Samples the image at each uv (u across, v down the image; bilinear), RGB in [0, 1]. False with
 /// *error if the file cannot be read.
 bool sampleTextureImage(const std::string& path, const Eigen::Matrix2Xd& uv, Eigen::Matrix3Xf* colors,
                         std::string* error);
 
-}  // namespace cloth_sim
+}  // namespace cloth_sim::core

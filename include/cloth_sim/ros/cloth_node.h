@@ -1,0 +1,111 @@
+// The ROS face of the simulator: parameters in, a timer that advances frames, topics/services/tf out.
+// Single-threaded: every callback runs from ros::spin(), so none of them races another.
+#pragma once
+
+#include "cloth_sim/ClothConfig.h"
+#include "cloth_sim/Grasp.h"
+#include "cloth_sim/LoadScene.h"
+#include "cloth_sim/Step.h"
+#include "cloth_sim/core/simulation.h"
+
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <dynamic_reconfigure/server.h>
+#include <geometry_msgs/Vector3Stamped.h>
+#include <ros/ros.h>
+#include <std_srvs/SetBool.h>
+#include <std_srvs/Trigger.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <chrono>
+#include <memory>
+#include <string>
+
+namespace cloth_sim {
+
+/// Topic, service and parameter names other nodes are written against (all private, under ~).
+struct Names {
+  static constexpr const char* kMeshTopic = "mesh";
+  static constexpr const char* kStateTopic = "state";
+  static constexpr const char* kWindTopic = "wind";
+  static constexpr const char* kGraspTopic = "grasp";
+  static constexpr const char* kResetService = "reset";
+  static constexpr const char* kPauseService = "pause";
+  static constexpr const char* kStepService = "step";
+  static constexpr const char* kLoadSceneService = "load_scene";
+  static constexpr const char* kSceneParam = "scene";
+  static constexpr const char* kFrameIdParam = "frame_id";
+};
+
+class ClothNode {
+ public:
+  /// Most frames one step service call may ask for.
+  static constexpr std::uint32_t kMaxStepFrames = 100000;
+  /// Most frames a late timer tick catches up in wall-time mode; further lag is dropped (and shows as a
+  /// real-time factor below 1) rather than stalling the node.
+  static constexpr int kMaxCatchUpFrames = 5;
+  /// Wind faster than this (m/s) is refused as absurd.
+  static constexpr double kMaxWind_m_per_s = 100.0;
+
+  ClothNode(const ros::NodeHandle& node_handle, const ros::NodeHandle& private_handle);
+
+  /// Reads and validates every parameter, builds the scene and starts the interface. False with the
+  /// reason (naming the parameter, its value and the allowed range) if anything is invalid.
+  bool start(std::string* error);
+
+ private:
+  /// Builds a validated simulation from a scene (name or path) overlaid with the node's private
+  /// parameters (only at start-up: overlay_parameters).
+  std::unique_ptr<core::Simulation> buildSimulation(const std::string& scene, bool overlay_parameters,
+                                              std::string* error) const;
+  void install(std::unique_ptr<core::Simulation> simulation);
+
+  void onTimer(const ros::TimerEvent& event);
+  void advanceFrames(int frames);
+  void publish(const ros::Time& stamp);
+  void reanchor();
+
+  void onWind(const geometry_msgs::Vector3Stamped::ConstPtr& message);
+  void onGrasp(const cloth_sim::Grasp::ConstPtr& message);
+  bool onReset(std_srvs::Trigger::Request& request, std_srvs::Trigger::Response& response);
+  bool onPause(std_srvs::SetBool::Request& request, std_srvs::SetBool::Response& response);
+  bool onStep(cloth_sim::Step::Request& request, cloth_sim::Step::Response& response);
+  bool onLoadScene(cloth_sim::LoadScene::Request& request, cloth_sim::LoadScene::Response& response);
+  void onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t level);
+  void pushConfig();
+  void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
+
+  ros::NodeHandle nh_;
+  ros::NodeHandle pnh_;
+  std::string frame_id_ = "world";
+  std::string scenes_dir_;
+  std::unique_ptr<core::Simulation> simulation_;
+
+  ros::Publisher mesh_pub_, state_pub_;
+  ros::Subscriber wind_sub_, grasp_sub_;
+  ros::ServiceServer reset_srv_, pause_srv_, step_srv_, load_scene_srv_;
+  ros::Timer timer_;
+  tf2_ros::TransformBroadcaster tf_broadcaster_;
+  tf2_ros::Buffer tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::unique_ptr<dynamic_reconfigure::Server<cloth_sim::ClothConfig>> reconfigure_;
+  boost::recursive_mutex reconfigure_mutex_;
+  diagnostic_updater::Updater diagnostics_;
+
+  bool paused_ = false;
+  /// Frames are due at anchor_time_ + k / frame_rate (ROS time: wall clock, or /clock under use_sim_time).
+  ros::Time anchor_time_;
+  std::uint64_t anchor_frame_ = 0;
+  bool anchored_ = false;
+
+  // For diagnostics, since the last diagnostics update.
+  core::FrameReport last_report_;
+  double step_cost_ms_ = 0.0;  ///< wall time of the last frame, ms
+  int unstable_frames_ = 0;
+  std::uint64_t dropped_frames_ = 0;
+  double window_sim_s_ = 0.0;
+  std::chrono::steady_clock::time_point window_start_;
+};
+
+}  // namespace cloth_sim

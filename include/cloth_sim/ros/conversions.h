@@ -1,0 +1,39 @@
+// Every conversion between the ROS-free core and ROS messages/parameters lives here, so a topic change
+// never touches the physics and a physics change never touches the node.
+#pragma once
+
+#include "cloth_sim/ClothState.h"
+#include "cloth_sim/Grasp.h"
+#include "cloth_sim/core/simulation.h"
+
+#include <geometry_msgs/TransformStamped.h>
+#include <ros/time.h>
+#include <visualization_msgs/Marker.h>
+#include <xmlrpcpp/XmlRpcValue.h>
+#include <yaml-cpp/yaml.h>
+
+#include <string>
+#include <vector>
+
+namespace cloth_sim {
+
+/// The cloth as an rviz TRIANGLE_LIST: two triangles per grid quad, 6 (rows-1)(cols-1) points, one
+/// colour per point (per-vertex texture colours, Gouraud-shaded by rviz).
+visualization_msgs::Marker toMeshMarker(const core::Simulation& simulation, const std::string& frame_id,
+                                        const ros::Time& stamp);
+
+/// The whole state after a frame, with energies and the integrator in use.
+cloth_sim::ClothState toStateMessage(const core::Simulation& simulation, const std::string& frame_id,
+                                     const ros::Time& stamp);
+
+/// tf frames sphere_<i>, children of frame_id, at the spheres' current centres.
+std::vector<geometry_msgs::TransformStamped> toSphereTransforms(const core::Simulation& simulation,
+                                                                const std::string& frame_id, const ros::Time& stamp);
+
+/// A GRAB message as a core request; the target must already be in the simulation's frame.
+core::GraspRequest toGraspRequest(const cloth_sim::Grasp& message, const Eigen::Vector3d& target_in_frame_m);
+
+/// A parameter tree (as XmlRpc gives it) as YAML, so parameters and scene files share one parser.
+YAML::Node toYaml(const XmlRpc::XmlRpcValue& value);
+
+}  // namespace cloth_sim

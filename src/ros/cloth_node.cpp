@@ -1,0 +1,391 @@
+#include "cloth_sim/ros/cloth_node.h"
+
+#include "cloth_sim/io/scene_file.h"
+#include "cloth_sim/io/texture.h"
+#include "cloth_sim/ros/conversions.h"
+
+#include <ros/package.h>
+#include <tf2_geometry_msgs/tf2_geometry_msgs.h>
+
+#include <cmath>
+#include <set>
+#include <sstream>
+
+namespace cloth_sim {
+
+namespace {
+
+/// Private parameters that belong to the node rather than to the scene.
+const std::set<std::string>& nodeOnlyParameters() {
+  static const std::set<std::string> names{Names::kSceneParam, Names::kFrameIdParam,
+                                           // dynamic_reconfigure mirrors its wind sliders here
+                                           "wind_x", "wind_y", "wind_z"};
+  return names;
+}
+
+std::string join(const std::vector<std::string>& parts, const std::string& separator) {
+  std::string joined;
+  for (const std::string& part : parts) joined += (joined.empty() ? "" : separator) + part;
+  return joined;
+}
+
+/// Timer jitter: a frame counts as due this much before its exact time, in frames.
+constexpr double kFrameDueTolerance = 1e-6;
+constexpr double kWarnThrottle_s = 5.0;
+constexpr double kMillisecondsPerSecond = 1000.0;
+
+}  // namespace
+
+ClothNode::ClothNode(const ros::NodeHandle& node_handle, const ros::NodeHandle& private_handle)
+    : nh_(node_handle), pnh_(private_handle) {}
+
+bool ClothNode::start(std::string* error) {
+  pnh_.param<std::string>(Names::kFrameIdParam, frame_id_, "world");
+  if (frame_id_.empty() || frame_id_[0] == '/') {
+    *error = "parameter ~frame_id = '" + frame_id_ + "': must be a non-empty tf frame name without a leading '/'";
+    return false;
+  }
+  std::string scene;
+  pnh_.param<std::string>(Names::kSceneParam, scene, "hanging");
+  scenes_dir_ = ros::package::getPath("cloth_sim") + "/config/scenes";
+  std::unique_ptr<core::Simulation> simulation = buildSimulation(scene, true, error);
+  if (!simulation) return false;
+  simulation_ = std::move(simulation);
+
+  mesh_pub_ = pnh_.advertise<visualization_msgs::Marker>(Names::kMeshTopic, 2);
+  state_pub_ = pnh_.advertise<cloth_sim::ClothState>(Names::kStateTopic, 2);
+  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_);
+  wind_sub_ = pnh_.subscribe(Names::kWindTopic, 10, &ClothNode::onWind, this);
+  grasp_sub_ = pnh_.subscribe(Names::kGraspTopic, 10, &ClothNode::onGrasp, this);
+  reset_srv_ = pnh_.advertiseService(Names::kResetService, &ClothNode::onReset, this);
+  pause_srv_ = pnh_.advertiseService(Names::kPauseService, &ClothNode::onPause, this);
+  step_srv_ = pnh_.advertiseService(Names::kStepService, &ClothNode::onStep, this);
+  load_scene_srv_ = pnh_.advertiseService(Names::kLoadSceneService, &ClothNode::onLoadScene, this);
+
+  reconfigure_ = std::make_unique<dynamic_reconfigure::Server<cloth_sim::ClothConfig>>(reconfigure_mutex_, pnh_);
+  pushConfig();  // before the callback, so its first call carries the scene's values, not the .cfg defaults
+  reconfigure_->setCallback([this](cloth_sim::ClothConfig& config, std::uint32_t level) { onReconfigure(config, level); });
+
+  diagnostics_.setHardwareID("cloth_sim");
+  diagnostics_.add("simulation", this, &ClothNode::diagnose);
+  window_start_ = std::chrono::steady_clock::now();
+
+  timer_ = pnh_.createTimer(ros::Duration(simulation_->options().frameDuration_s()), &ClothNode::onTimer, this);
+  ROS_INFO("cloth_node: scene '%s', %dx%d particles, %s with %d substeps, %.0f Hz, frame '%s'",
+           simulation_->options().name.c_str(), simulation_->grid().rows, simulation_->grid().cols,
+           core::integratorName(simulation_->options().integrator), simulation_->options().substeps,
+           simulation_->options().frame_rate_hz, frame_id_.c_str());
+  return true;
+}
+
+std::unique_ptr<core::Simulation> ClothNode::buildSimulation(const std::string& scene, bool overlay_parameters,
+                                                       std::string* error) const {
+  const std::string path = core::resolveScenePath(scene, scenes_dir_);
+  core::SceneOptions options;
+  std::vector<std::string> errors;
+  if (!core::loadSceneFile(path, &options, &errors)) {
+    *error = "scene '" + scene + "': " + join(errors, "; ") + " (built-in scenes: " +
+             join(core::builtinSceneNames(scenes_dir_), ", ") + ")";
+    return nullptr;
+  }
+  if (overlay_parameters) {
+    XmlRpc::XmlRpcValue parameters;
+    if (ros::param::get(pnh_.getNamespace(), parameters) && parameters.getType() == XmlRpc::XmlRpcValue::TypeStruct) {
+      YAML::Node overlay(YAML::NodeType::Map);
+      const std::vector<std::string>& keys = core::sceneKeys();
+      for (auto& entry : parameters) {
+        if (nodeOnlyParameters().count(entry.first)) continue;
+        if (std::find(keys.begin(), keys.end(), entry.first) == keys.end()) {
+          ROS_WARN("cloth_node: ignoring parameter ~%s: not a scene key (see the README's parameter table)",
+                   entry.first.c_str());
+          continue;
+        }
+        overlay[entry.first] = toYaml(entry.second);
+      }
+      if (!core::applySceneYaml(overlay, "parameter", &options, &errors)) {
+        *error = join(errors, "; ");
+        return nullptr;
+      }
+      const std::vector<std::string> problems = core::validateSceneOptions(options);
+      if (!problems.empty()) {
+        *error = "invalid parameter: " + join(problems, "; ");
+        return nullptr;
+      }
+    }
+  }
+  auto simulation = std::make_unique<core::Simulation>(options);
+  if (!options.texture.empty()) {
+    Eigen::Matrix3Xf colors;
+    std::string texture_error;
+    if (!core::sampleTextureImage(options.texture, simulation->grid().uv, &colors, &texture_error)) {
+      *error = "scene '" + scene + "': " + texture_error;
+      return nullptr;
+    }
+    simulation->setVertexColors(colors);
+  }
+  return simulation;
+}
+
+void ClothNode::install(std::unique_ptr<core::Simulation> simulation) {
+  simulation_ = std::move(simulation);
+  timer_.setPeriod(ros::Duration(simulation_->options().frameDuration_s()));
+  last_report_ = core::FrameReport();
+  reanchor();
+  pushConfig();
+}
+
+void ClothNode::reanchor() {
+  anchor_time_ = ros::Time::now();
+  anchor_frame_ = simulation_->state().frame;
+  // Under use_sim_time the clock reads zero until the first /clock message: anchor on that one instead.
+  anchored_ = !anchor_time_.isZero();
+}
+
+void ClothNode::onTimer(const ros::TimerEvent&) {
+  const ros::Time now = ros::Time::now();
+  if (!anchored_) reanchor();
+  if (anchored_ && !paused_) {
+    const double elapsed_frames = (now - anchor_time_).toSec() * simulation_->options().frame_rate_hz;
+    const auto due = anchor_frame_ + static_cast<std::uint64_t>(std::floor(elapsed_frames + kFrameDueTolerance));
+    std::int64_t behind = static_cast<std::int64_t>(due) - static_cast<std::int64_t>(simulation_->state().frame);
+    // In wall time a slow machine must not snowball; under /clock every frame is owed (determinism).
+    if (!ros::Time::isSimTime() && behind > kMaxCatchUpFrames) {
+      dropped_frames_ += behind - kMaxCatchUpFrames;
+      behind = kMaxCatchUpFrames;
+      advanceFrames(static_cast<int>(behind));
+      reanchor();
+    } else if (behind > 0) {
+      advanceFrames(static_cast<int>(behind));
+    }
+  }
+  publish(now);
+  diagnostics_.update();
+}
+
+void ClothNode::advanceFrames(int frames) {
+  for (int k = 0; k < frames; ++k) {
+    const auto start = std::chrono::steady_clock::now();
+    last_report_ = simulation_->advanceFrame();
+    step_cost_ms_ =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() * kMillisecondsPerSecond;
+    if (last_report_.stable) {
+      window_sim_s_ += simulation_->options().frameDuration_s();
+    } else {
+      ++unstable_frames_;
+      ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: %s", last_report_.reason.c_str());
+    }
+  }
+}
+
+void ClothNode::publish(const ros::Time& stamp) {
+  // The core rolls a diverged frame back, so this holds; rviz crashes on NaN markers, so check anyway.
+  if (!core::isFiniteAndBounded(simulation_->state(), core::Simulation::kDivergenceBound_m)) {
+    ROS_ERROR_THROTTLE(kWarnThrottle_s, "cloth_node: state is not finite; not publishing");
+    return;
+  }
+  if (mesh_pub_.getNumSubscribers() > 0) mesh_pub_.publish(toMeshMarker(*simulation_, frame_id_, stamp));
+  if (state_pub_.getNumSubscribers() > 0) state_pub_.publish(toStateMessage(*simulation_, frame_id_, stamp));
+  const auto transforms = toSphereTransforms(*simulation_, frame_id_, stamp);
+  if (!transforms.empty()) tf_broadcaster_.sendTransform(transforms);
+}
+
+void ClothNode::onWind(const geometry_msgs::Vector3Stamped::ConstPtr& message) {
+  geometry_msgs::Vector3Stamped wind = *message;
+  const Eigen::Vector3d raw(wind.vector.x, wind.vector.y, wind.vector.z);
+  if (!raw.allFinite() || raw.norm() > kMaxWind_m_per_s) {
+    ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~wind (%g, %g, %g) m/s: must be finite and below %g m/s",
+                      raw.x(), raw.y(), raw.z(), kMaxWind_m_per_s);
+    return;
+  }
+  if (!wind.header.frame_id.empty() && wind.header.frame_id != frame_id_) {
+    try {
+      const auto transform = tf_buffer_.lookupTransform(frame_id_, wind.header.frame_id, ros::Time(0));
+      tf2::doTransform(*message, wind, transform);  // a free vector: rotation only
+    } catch (const tf2::TransformException& e) {
+      ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~wind in frame '%s': %s",
+                        message->header.frame_id.c_str(), e.what());
+      return;
+    }
+  }
+  simulation_->setWindVelocity(Eigen::Vector3d(wind.vector.x, wind.vector.y, wind.vector.z));
+}
+
+void ClothNode::onGrasp(const cloth_sim::Grasp::ConstPtr& message) {
+  if (message->action == cloth_sim::Grasp::RELEASE) {
+    if (!simulation_->release(message->id)) {
+      ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp RELEASE: no grasp with id %u", message->id);
+    }
+    return;
+  }
+  if (message->action != cloth_sim::Grasp::GRAB) {
+    ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp: action %u is neither GRAB (0) nor RELEASE (1)",
+                      message->action);
+    return;
+  }
+  geometry_msgs::PointStamped target;
+  target.header = message->header;
+  target.point = message->target;
+  const Eigen::Vector3d raw(target.point.x, target.point.y, target.point.z);
+  if (!raw.allFinite()) {
+    ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp id %u: target is not finite", message->id);
+    return;
+  }
+  if (!target.header.frame_id.empty() && target.header.frame_id != frame_id_) {
+    try {
+      const auto transform = tf_buffer_.lookupTransform(frame_id_, target.header.frame_id, ros::Time(0));
+      geometry_msgs::PointStamped in_frame;
+      tf2::doTransform(target, in_frame, transform);
+      target = in_frame;
+    } catch (const tf2::TransformException& e) {
+      ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp id %u in frame '%s': %s", message->id,
+                        message->header.frame_id.c_str(), e.what());
+      return;
+    }
+  }
+  std::string error;
+  const core::GraspRequest request =
+      toGraspRequest(*message, Eigen::Vector3d(target.point.x, target.point.y, target.point.z));
+  if (!simulation_->grab(request, &error)) {
+    ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp id %u: %s", message->id, error.c_str());
+  }
+}
+
+bool ClothNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
+  simulation_->reset();
+  reanchor();
+  publish(ros::Time::now());
+  response.success = true;
+  response.message = "scene '" + simulation_->options().name + "' back at frame 0";
+  return true;
+}
+
+bool ClothNode::onPause(std_srvs::SetBool::Request& request, std_srvs::SetBool::Response& response) {
+  paused_ = request.data;
+  reanchor();
+  response.success = true;
+  response.message = paused_ ? "paused at frame " + std::to_string(simulation_->state().frame) : "running";
+  return true;
+}
+
+bool ClothNode::onStep(cloth_sim::Step::Request& request, cloth_sim::Step::Response& response) {
+  response.sim_time = simulation_->state().time_s;
+  if (!paused_) {
+    response.success = false;
+    response.message = "not paused: call ~pause with data=true first";
+    return true;
+  }
+  if (request.frames == 0 || request.frames > kMaxStepFrames) {
+    response.success = false;
+    response.message = "frames = " + std::to_string(request.frames) + ": must be in [1, " +
+                       std::to_string(kMaxStepFrames) + "]";
+    return true;
+  }
+  const int unstable_before = unstable_frames_;
+  advanceFrames(static_cast<int>(request.frames));
+  publish(ros::Time::now());
+  response.sim_time = simulation_->state().time_s;
+  response.success = unstable_frames_ == unstable_before;
+  response.message = response.success ? "advanced " + std::to_string(request.frames) + " frames"
+                                      : "some frames diverged and were rolled back: " + last_report_.reason;
+  return true;
+}
+
+bool ClothNode::onLoadScene(cloth_sim::LoadScene::Request& request, cloth_sim::LoadScene::Response& response) {
+  std::string error;
+  std::unique_ptr<core::Simulation> simulation = buildSimulation(request.scene, false, &error);
+  if (!simulation) {
+    response.success = false;
+    response.message = error + "; the current scene keeps running";
+    return true;
+  }
+  install(std::move(simulation));
+  response.success = true;
+  std::ostringstream message;
+  message << "loaded scene '" << simulation_->options().name << "' (" << simulation_->grid().rows << "x"
+          << simulation_->grid().cols << ")";
+  response.message = message.str();
+  ROS_INFO("cloth_node: %s", response.message.c_str());
+  return true;
+}
+
+void ClothNode::onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t) {
+  core::SceneOptions options = simulation_->options();
+  const double stiffness[core::kSpringKindCount] = {config.structural_stiffness, config.shear_stiffness,
+                                              config.bend_stiffness};
+  const double damping[core::kSpringKindCount] = {config.structural_damping, config.shear_damping, config.bend_damping};
+  for (int k = 0; k < core::kSpringKindCount; ++k) {
+    options.springs[k].stiffness_N_per_m = stiffness[k];
+    options.springs[k].damping_N_s_per_m = damping[k];
+  }
+  options.air_damping_N_s_per_m = config.air_damping;
+  const Eigen::Vector3d wind(config.wind_x, config.wind_y, config.wind_z);
+  if (wind != options.wind.velocity_m_per_s) {
+    options.wind.velocity_m_per_s = wind;
+    options.wind_enabled = true;
+  }
+  std::string error;
+  if (!core::parseIntegratorName(config.integrator, &options.integrator)) {
+    error = "integrator '" + config.integrator + "' is unknown";
+  }
+  options.substeps = config.substeps;
+  if (!error.empty() || !simulation_->retune(options, &error)) {
+    ROS_WARN("cloth_node: reconfigure refused: %s", error.c_str());
+    pushConfig();
+  }
+}
+
+void ClothNode::pushConfig() {
+  if (!reconfigure_) return;
+  const core::SceneOptions& o = simulation_->options();
+  cloth_sim::ClothConfig config;
+  config.structural_stiffness = o.springs[0].stiffness_N_per_m;
+  config.structural_damping = o.springs[0].damping_N_s_per_m;
+  config.shear_stiffness = o.springs[1].stiffness_N_per_m;
+  config.shear_damping = o.springs[1].damping_N_s_per_m;
+  config.bend_stiffness = o.springs[2].stiffness_N_per_m;
+  config.bend_damping = o.springs[2].damping_N_s_per_m;
+  config.air_damping = o.air_damping_N_s_per_m;
+  config.wind_x = o.wind.velocity_m_per_s.x();
+  config.wind_y = o.wind.velocity_m_per_s.y();
+  config.wind_z = o.wind.velocity_m_per_s.z();
+  config.integrator = core::integratorName(o.integrator);
+  config.substeps = o.substeps;
+  reconfigure_->updateConfig(config);
+}
+
+void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
+  const auto now = std::chrono::steady_clock::now();
+  const double window_wall_s = std::chrono::duration<double>(now - window_start_).count();
+  const double real_time_factor = window_wall_s > 0.0 ? window_sim_s_ / window_wall_s : 0.0;
+  const core::EnergyReport energy = simulation_->energies();
+  std::string problem;
+  if (unstable_frames_ > 0) {
+    problem = std::to_string(unstable_frames_) + " frames diverged and were rolled back: " + last_report_.reason;
+  } else if (!last_report_.reason.empty()) {
+    problem = last_report_.reason;
+  } else if (dropped_frames_ > 0) {
+    problem = std::to_string(dropped_frames_) + " frames dropped: the machine cannot keep up in real time";
+  }
+  if (problem.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK, paused_ ? "paused" : "running");
+  } else {
+    status.summary(diagnostic_msgs::DiagnosticStatus::WARN, problem);
+  }
+  status.add("scene", simulation_->options().name);
+  status.add("frame", simulation_->state().frame);
+  status.add("sim time [s]", simulation_->state().time_s);
+  status.add("step cost [ms]", step_cost_ms_);
+  status.add("real-time factor", real_time_factor);
+  status.add("kinetic energy [J]", energy.kinetic_J);
+  status.add("potential energy [J]", energy.potential_J);
+  status.add("max strain", simulation_->maxStructuralStrain());
+  status.add("integrator", core::integratorName(simulation_->options().integrator));
+  status.add("substeps", simulation_->options().substeps);
+  status.add("paused", paused_);
+  unstable_frames_ = 0;
+  dropped_frames_ = 0;
+  window_sim_s_ = 0.0;
+  window_start_ = now;
+}
+
+}  // namespace cloth_sim

@@ -1,0 +1,132 @@
+#include "cloth_sim/ros/conversions.h"
+
+namespace cloth_sim {
+
+namespace {
+
+geometry_msgs::Point toPoint(const Eigen::Vector3d& p) {
+  geometry_msgs::Point point;
+  point.x = p.x();
+  point.y = p.y();
+  point.z = p.z();
+  return point;
+}
+
+std_msgs::ColorRGBA toColor(const Eigen::Vector3f& rgb) {
+  std_msgs::ColorRGBA color;
+  color.r = rgb.x();
+  color.g = rgb.y();
+  color.b = rgb.z();
+  color.a = 1.0f;
+  return color;
+}
+
+}  // namespace
+
+visualization_msgs::Marker toMeshMarker(const core::Simulation& simulation, const std::string& frame_id,
+                                        const ros::Time& stamp) {
+  visualization_msgs::Marker marker;
+  marker.header.frame_id = frame_id;
+  marker.header.stamp = stamp;
+  marker.ns = "cloth";
+  marker.id = 0;
+  marker.type = visualization_msgs::Marker::TRIANGLE_LIST;
+  marker.action = visualization_msgs::Marker::ADD;
+  marker.pose.orientation.w = 1.0;
+  marker.scale.x = marker.scale.y = marker.scale.z = 1.0;  // TRIANGLE_LIST points are in metres as given
+  marker.color.a = 1.0f;
+  const std::vector<int>& triangles = simulation.grid().triangles;
+  const Eigen::Matrix3Xd& positions = simulation.state().positions_m;
+  const Eigen::Matrix3Xf& colors = simulation.vertexColors();
+  marker.points.reserve(triangles.size());
+  marker.colors.reserve(triangles.size());
+  for (int index : triangles) {
+    marker.points.push_back(toPoint(positions.col(index)));
+    marker.colors.push_back(toColor(colors.col(index)));
+  }
+  return marker;
+}
+
+cloth_sim::ClothState toStateMessage(const core::Simulation& simulation, const std::string& frame_id,
+                                     const ros::Time& stamp) {
+  cloth_sim::ClothState message;
+  message.header.frame_id = frame_id;
+  message.header.stamp = stamp;
+  message.rows = simulation.grid().rows;
+  message.cols = simulation.grid().cols;
+  const core::ClothState& state = simulation.state();
+  message.positions.reserve(state.particleCount());
+  message.velocities.reserve(state.particleCount());
+  for (int i = 0; i < state.particleCount(); ++i) {
+    message.positions.push_back(toPoint(state.positions_m.col(i)));
+    geometry_msgs::Vector3 velocity;
+    velocity.x = state.velocities_m_per_s(0, i);
+    velocity.y = state.velocities_m_per_s(1, i);
+    velocity.z = state.velocities_m_per_s(2, i);
+    message.velocities.push_back(velocity);
+  }
+  message.sim_time = state.time_s;
+  message.frame = state.frame;
+  message.integrator = core::integratorName(simulation.options().integrator);
+  message.substeps = simulation.options().substeps;
+  const core::EnergyReport energy = simulation.energies();
+  message.kinetic_energy = energy.kinetic_J;
+  message.potential_energy = energy.potential_J;
+  return message;
+}
+
+std::vector<geometry_msgs::TransformStamped> toSphereTransforms(const core::Simulation& simulation,
+                                                                const std::string& frame_id, const ros::Time& stamp) {
+  std::vector<geometry_msgs::TransformStamped> transforms;
+  const std::vector<Eigen::Vector3d> centers = simulation.sphereCenters();
+  for (std::size_t i = 0; i < centers.size(); ++i) {
+    geometry_msgs::TransformStamped t;
+    t.header.frame_id = frame_id;
+    t.header.stamp = stamp;
+    t.child_frame_id = "sphere_" + std::to_string(i);
+    t.transform.translation.x = centers[i].x();
+    t.transform.translation.y = centers[i].y();
+    t.transform.translation.z = centers[i].z();
+    t.transform.rotation.w = 1.0;
+    transforms.push_back(t);
+  }
+  return transforms;
+}
+
+core::GraspRequest toGraspRequest(const cloth_sim::Grasp& message, const Eigen::Vector3d& target_in_frame_m) {
+  core::GraspRequest request;
+  request.id = message.id;
+  request.particle = message.particle;
+  request.target_m = target_in_frame_m;
+  request.stiffness_N_per_m = message.stiffness;
+  request.extra_force_N = Eigen::Vector3d(message.force.x, message.force.y, message.force.z);
+  return request;
+}
+
+YAML::Node toYaml(const XmlRpc::XmlRpcValue& value) {
+  XmlRpc::XmlRpcValue& v = const_cast<XmlRpc::XmlRpcValue&>(value);  // XmlRpc's accessors are not const
+  switch (v.getType()) {
+    case XmlRpc::XmlRpcValue::TypeBoolean:
+      return YAML::Node(static_cast<bool>(v));
+    case XmlRpc::XmlRpcValue::TypeInt:
+      return YAML::Node(static_cast<int>(v));
+    case XmlRpc::XmlRpcValue::TypeDouble:
+      return YAML::Node(static_cast<double>(v));
+    case XmlRpc::XmlRpcValue::TypeString:
+      return YAML::Node(static_cast<std::string>(v));
+    case XmlRpc::XmlRpcValue::TypeArray: {
+      YAML::Node list(YAML::NodeType::Sequence);
+      for (int i = 0; i < v.size(); ++i) list.push_back(toYaml(v[i]));
+      return list;
+    }
+    case XmlRpc::XmlRpcValue::TypeStruct: {
+      YAML::Node map(YAML::NodeType::Map);
+      for (auto& entry : v) map[entry.first] = toYaml(entry.second);
+      return map;
+    }
+    default:
+      return YAML::Node();  // invalid, date-time and binary values: left out, reported as "nothing"
+  }
+}
+
+}  // namespace cloth_sim
