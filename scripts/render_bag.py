@@ -173,7 +173,7 @@ def main(argv=None):
     ax.set_xlim(fx0, fx1)
     ax.set_ylim(fy0, fy1)
     ax.set_zlim(floor_z, zmax)
-    ax.set_box_aspect((fx1 - fx0, fy1 - fy0, zmax - floor_z))
+    ax.set_box_aspect((fx1 - fx0, fy1 - fy0, zmax - floor_z), zoom=0.9)  # room for the z label
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_zlabel("z (m)", labelpad=2)
