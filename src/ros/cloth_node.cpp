@@ -114,15 +114,13 @@ std::unique_ptr<core::Simulation> ClothNode::buildSimulation(const std::string& 
     }
   }
   auto simulation = std::make_unique<core::Simulation>(options);
-  if (!options.texture.empty()) {
-    Eigen::Matrix3Xf colors;
-    std::string texture_error;
-    if (!core::sampleTextureImage(options.texture, simulation->grid().uv, &colors, &texture_error)) {
-      *error = "scene '" + scene + "': " + texture_error;
-      return nullptr;
-    }
-    simulation->setVertexColors(colors);
+  Eigen::Matrix3Xf colors;
+  std::string texture_error;
+  if (!core::sceneVertexColors(options.texture, simulation->grid().uv, &colors, &texture_error)) {
+    *error = "scene '" + scene + "': " + texture_error;
+    return nullptr;
   }
+  simulation->setVertexColors(colors);
   return simulation;
 }
 
