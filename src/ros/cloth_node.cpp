@@ -54,6 +54,7 @@ bool ClothNode::start(std::string* error) {
 
   mesh_pub_ = pnh_.advertise<visualization_msgs::Marker>(Names::kMeshTopic, 2);
   state_pub_ = pnh_.advertise<cloth_sim::ClothState>(Names::kStateTopic, 2);
+  colliders_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>(Names::kCollidersTopic, 2);
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_);
   wind_sub_ = pnh_.subscribe(Names::kWindTopic, 10, &ClothNode::onWind, this);
   grasp_sub_ = pnh_.subscribe(Names::kGraspTopic, 10, &ClothNode::onGrasp, this);
@@ -183,6 +184,9 @@ void ClothNode::publish(const ros::Time& stamp) {
   }
   if (mesh_pub_.getNumSubscribers() > 0) mesh_pub_.publish(toMeshMarker(*simulation_, frame_id_, stamp));
   if (state_pub_.getNumSubscribers() > 0) state_pub_.publish(toStateMessage(*simulation_, frame_id_, stamp));
+  if (colliders_pub_.getNumSubscribers() > 0 && !simulation_->options().colliders.empty()) {
+    colliders_pub_.publish(toColliderMarkers(*simulation_, frame_id_, stamp));
+  }
   const auto transforms = toSphereTransforms(*simulation_, frame_id_, stamp);
   if (!transforms.empty()) tf_broadcaster_.sendTransform(transforms);
 }

@@ -28,6 +28,7 @@ namespace cloth_sim {
 struct Names {
   static constexpr const char* kMeshTopic = "mesh";
   static constexpr const char* kStateTopic = "state";
+  static constexpr const char* kCollidersTopic = "colliders";
   static constexpr const char* kWindTopic = "wind";
   static constexpr const char* kGraspTopic = "grasp";
   static constexpr const char* kResetService = "reset";
@@ -82,7 +83,7 @@ class ClothNode {
   std::string scenes_dir_;
   std::unique_ptr<core::Simulation> simulation_;
 
-  ros::Publisher mesh_pub_, state_pub_;
+  ros::Publisher mesh_pub_, state_pub_, colliders_pub_;
   ros::Subscriber wind_sub_, grasp_sub_;
   ros::ServiceServer reset_srv_, pause_srv_, step_srv_, load_scene_srv_;
   ros::Timer timer_;
