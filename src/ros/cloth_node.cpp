@@ -330,26 +330,33 @@ void ClothNode::onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t) {
   options.substeps = config.substeps;
   if (!error.empty() || !simulation_->retune(options, &error)) {
     ROS_WARN("cloth_node: reconfigure refused: %s", error.c_str());
-    pushConfig();
+    // The server publishes and answers with `config` after this callback returns (an updateConfig here
+    // would be overwritten), so put the values still in force into it.
+    fillConfig(&config);
   }
+}
+
+void ClothNode::fillConfig(cloth_sim::ClothConfig* config) const {
+  const core::SceneOptions& o = simulation_->options();
+  cloth_sim::ClothConfig& c = *config;
+  c.structural_stiffness = o.springs[0].stiffness_N_per_m;
+  c.structural_damping = o.springs[0].damping_N_s_per_m;
+  c.shear_stiffness = o.springs[1].stiffness_N_per_m;
+  c.shear_damping = o.springs[1].damping_N_s_per_m;
+  c.bend_stiffness = o.springs[2].stiffness_N_per_m;
+  c.bend_damping = o.springs[2].damping_N_s_per_m;
+  c.air_damping = o.air_damping_N_s_per_m;
+  c.wind_x = o.wind.velocity_m_per_s.x();
+  c.wind_y = o.wind.velocity_m_per_s.y();
+  c.wind_z = o.wind.velocity_m_per_s.z();
+  c.integrator = core::integratorName(o.integrator);
+  c.substeps = o.substeps;
 }
 
 void ClothNode::pushConfig() {
   if (!reconfigure_) return;
-  const core::SceneOptions& o = simulation_->options();
   cloth_sim::ClothConfig config;
-  config.structural_stiffness = o.springs[0].stiffness_N_per_m;
-  config.structural_damping = o.springs[0].damping_N_s_per_m;
-  config.shear_stiffness = o.springs[1].stiffness_N_per_m;
-  config.shear_damping = o.springs[1].damping_N_s_per_m;
-  config.bend_stiffness = o.springs[2].stiffness_N_per_m;
-  config.bend_damping = o.springs[2].damping_N_s_per_m;
-  config.air_damping = o.air_damping_N_s_per_m;
-  config.wind_x = o.wind.velocity_m_per_s.x();
-  config.wind_y = o.wind.velocity_m_per_s.y();
-  config.wind_z = o.wind.velocity_m_per_s.z();
-  config.integrator = core::integratorName(o.integrator);
-  config.substeps = o.substeps;
+  fillConfig(&config);
   reconfigure_->updateConfig(config);
 }
 

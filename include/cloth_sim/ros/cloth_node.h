@@ -73,6 +73,8 @@ class ClothNode {
   bool onStep(cloth_sim::Step::Request& request, cloth_sim::Step::Response& response);
   bool onLoadScene(cloth_sim::LoadScene::Request& request, cloth_sim::LoadScene::Response& response);
   void onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t level);
+  /// The options in force as a reconfigure config.
+  void fillConfig(cloth_sim::ClothConfig* config) const;
   void pushConfig();
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
 
