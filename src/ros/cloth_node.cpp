@@ -318,8 +318,10 @@ void ClothNode::onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t) {
     options.springs[k].damping_N_s_per_m = damping[k];
   }
   options.air_damping_N_s_per_m = config.air_damping;
+  // The wind sliders count only when they moved: comparing them with the wind in force would undo every
+  // wind that came in on ~wind (the sliders do not follow the topic) at the next reconfigure of anything.
   const Eigen::Vector3d wind(config.wind_x, config.wind_y, config.wind_z);
-  if (wind != options.wind.velocity_m_per_s) {
+  if (wind != reconfigure_wind_) {
     options.wind.velocity_m_per_s = wind;
     options.wind_enabled = true;
   }
@@ -330,10 +332,10 @@ void ClothNode::onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t) {
   options.substeps = config.substeps;
   if (!error.empty() || !simulation_->retune(options, &error)) {
     ROS_WARN("cloth_node: reconfigure refused: %s", error.c_str());
-    // The server publishes and answers with `config` after this callback returns (an updateConfig here
-    // would be overwritten), so put the values still in force into it.
-    fillConfig(&config);
   }
+  // Answer and publish what is in force (a refused change is not; a ~wind is), so the sliders follow.
+  fillConfig(&config);
+  reconfigure_wind_ = Eigen::Vector3d(config.wind_x, config.wind_y, config.wind_z);
 }
 
 void ClothNode::fillConfig(cloth_sim::ClothConfig* config) const {
@@ -357,6 +359,7 @@ void ClothNode::pushConfig() {
   if (!reconfigure_) return;
   cloth_sim::ClothConfig config;
   fillConfig(&config);
+  reconfigure_wind_ = Eigen::Vector3d(config.wind_x, config.wind_y, config.wind_z);
   reconfigure_->updateConfig(config);
 }
 

@@ -93,6 +93,8 @@ class ClothNode {
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::unique_ptr<dynamic_reconfigure::Server<cloth_sim::ClothConfig>> reconfigure_;
   boost::recursive_mutex reconfigure_mutex_;
+  /// The wind the reconfigure sliders last showed: a reconfigure changes the wind only if they moved.
+  Eigen::Vector3d reconfigure_wind_ = Eigen::Vector3d::Zero();
   diagnostic_updater::Updater diagnostics_;
 
   bool paused_ = false;
