@@ -549,6 +549,20 @@ TEST_F(NodeTest, ReconfigureKeepsTheWindFromTheTopic) {
   EXPECT_GT(meanY(*s), 1e-3) << "the reconfigure switched the topic's wind off";
 }
 
+TEST_F(NodeTest, ReconfigureWindSliderBlows) {
+  // The other half of the rule above: moving the wind sliders does set the wind.
+  ASSERT_NO_FATAL_FAILURE(freshScene(true));
+  dynamic_reconfigure::Reconfigure reconfigure;
+  dynamic_reconfigure::DoubleParameter parameter;
+  parameter.name = "wind_y";
+  parameter.value = 5.0;
+  reconfigure.request.config.doubles.push_back(parameter);
+  ASSERT_TRUE(callService(nodeTopic("set_parameters"), reconfigure));
+  const auto s = step(25);
+  ASSERT_TRUE(s);
+  EXPECT_GT(meanY(*s), 1e-3) << "the wind_y slider did not blow";
+}
+
 // ---- 11. Diagnostics (services.test) --------------------------------------------------------------
 
 TEST_F(NodeTest, DiagnosticsReportTheSimulation) {
