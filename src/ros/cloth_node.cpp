@@ -320,8 +320,10 @@ void ClothNode::onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t) {
     options.springs[k].damping_N_s_per_m = damping[k];
   }
   options.air_damping_N_s_per_m = config.air_damping;
+  // The wind sliders count only when they moved: comparing them with the wind in force would undo every
+  // wind that came in on ~wind (the sliders do not follow the topic) at the next reconfigure of anything.
   const Eigen::Vector3d wind(config.wind_x, config.wind_y, config.wind_z);
-  if (wind != options.wind.velocity_m_per_s) {
+  if (wind != reconfigure_wind_) {
     options.wind.velocity_m_per_s = wind;
     options.wind_enabled = true;
   }
@@ -332,26 +334,34 @@ void ClothNode::onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t) {
   options.substeps = config.substeps;
   if (!error.empty() || !simulation_->retune(options, &error)) {
     ROS_WARN("cloth_node: reconfigure refused: %s", error.c_str());
-    pushConfig();
   }
+  // Answer and publish what is in force (a refused change is not; a ~wind is), so the sliders follow.
+  fillConfig(&config);
+  reconfigure_wind_ = Eigen::Vector3d(config.wind_x, config.wind_y, config.wind_z);
+}
+
+void ClothNode::fillConfig(cloth_sim::ClothConfig* config) const {
+  const core::SceneOptions& o = simulation_->options();
+  cloth_sim::ClothConfig& c = *config;
+  c.structural_stiffness = o.springs[0].stiffness_N_per_m;
+  c.structural_damping = o.springs[0].damping_N_s_per_m;
+  c.shear_stiffness = o.springs[1].stiffness_N_per_m;
+  c.shear_damping = o.springs[1].damping_N_s_per_m;
+  c.bend_stiffness = o.springs[2].stiffness_N_per_m;
+  c.bend_damping = o.springs[2].damping_N_s_per_m;
+  c.air_damping = o.air_damping_N_s_per_m;
+  c.wind_x = o.wind.velocity_m_per_s.x();
+  c.wind_y = o.wind.velocity_m_per_s.y();
+  c.wind_z = o.wind.velocity_m_per_s.z();
+  c.integrator = core::integratorName(o.integrator);
+  c.substeps = o.substeps;
 }
 
 void ClothNode::pushConfig() {
   if (!reconfigure_) return;
-  const core::SceneOptions& o = simulation_->options();
   cloth_sim::ClothConfig config;
-  config.structural_stiffness = o.springs[0].stiffness_N_per_m;
-  config.structural_damping = o.springs[0].damping_N_s_per_m;
-  config.shear_stiffness = o.springs[1].stiffness_N_per_m;
-  config.shear_damping = o.springs[1].damping_N_s_per_m;
-  config.bend_stiffness = o.springs[2].stiffness_N_per_m;
-  config.bend_damping = o.springs[2].damping_N_s_per_m;
-  config.air_damping = o.air_damping_N_s_per_m;
-  config.wind_x = o.wind.velocity_m_per_s.x();
-  config.wind_y = o.wind.velocity_m_per_s.y();
-  config.wind_z = o.wind.velocity_m_per_s.z();
-  config.integrator = core::integratorName(o.integrator);
-  config.substeps = o.substeps;
+  fillConfig(&config);
+  reconfigure_wind_ = Eigen::Vector3d(config.wind_x, config.wind_y, config.wind_z);
   reconfigure_->updateConfig(config);
 }
 

@@ -74,6 +74,8 @@ class ClothNode {
   bool onStep(cloth_sim::Step::Request& request, cloth_sim::Step::Response& response);
   bool onLoadScene(cloth_sim::LoadScene::Request& request, cloth_sim::LoadScene::Response& response);
   void onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t level);
+  /// The options in force as a reconfigure config.
+  void fillConfig(cloth_sim::ClothConfig* config) const;
   void pushConfig();
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
 
@@ -92,6 +94,8 @@ class ClothNode {
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::unique_ptr<dynamic_reconfigure::Server<cloth_sim::ClothConfig>> reconfigure_;
   boost::recursive_mutex reconfigure_mutex_;
+  /// The wind the reconfigure sliders last showed: a reconfigure changes the wind only if they moved.
+  Eigen::Vector3d reconfigure_wind_ = Eigen::Vector3d::Zero();
   diagnostic_updater::Updater diagnostics_;
 
   bool paused_ = false;
