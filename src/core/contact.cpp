@@ -15,10 +15,16 @@ constexpr double kTinyLength_m = 1e-12;
 /// Where a particle stood against one collider at the start and end of a substep.
 enum class Crossing { kNone, kSwept, kPenetrated };
 
-/// Beyond the band at the end of the substep: a sweep hit if it started outside, else a penetration.
+/// True when a particle at this distance is not inside the collider (outside or in the band). A particle
+/// resting on a surface sits in the band, often a rounding error below the surface: it must still count
+/// as outside, or a fast collider could carry it through unnoticed.
+bool notInside(double distance_m, double depth_m) { return distance_m >= -depth_m; }
+
+/// Beyond the band at the end of the substep: a sweep hit if it started outside or in the band, else a
+/// penetration.
 Crossing classifyDeep(double start_distance_m, double end_distance_m, double depth_m) {
-  if (end_distance_m >= -depth_m) return Crossing::kNone;
-  return start_distance_m >= 0.0 ? Crossing::kSwept : Crossing::kPenetrated;
+  if (notInside(end_distance_m, depth_m)) return Crossing::kNone;
+  return notInside(start_distance_m, depth_m) ? Crossing::kSwept : Crossing::kPenetrated;
 }
 
 void count(Crossing crossing, ContactStats& stats) {
@@ -110,6 +116,21 @@ bool boxEntry(const BoxCollider& box, const Eigen::Vector3d& start, const Eigen:
   return true;
 }
 
+/// A particle that started in the band just under a face (a particle resting on the box, after rounding)
+/// and ends outside or in the band again: true if its segment went through the box's deep interior (the
+/// box shrunk by the band), i.e. it crossed the box within the substep instead of leaving through the face.
+bool crossedFromBand(const BoxCollider& box, double depth_m, double start_distance_m, double end_distance_m,
+                     const Eigen::Vector3d& start, const Eigen::Vector3d& end) {
+  if (start_distance_m >= 0.0 || !notInside(start_distance_m, depth_m) || !notInside(end_distance_m, depth_m)) {
+    return false;
+  }
+  const BoxCollider deep{box.min_m.array() + depth_m, box.max_m.array() - depth_m};
+  if ((deep.max_m - deep.min_m).minCoeff() <= 0.0) return false;  // thinner than the band: no deep interior
+  double entry = 0.0;
+  Eigen::Vector3d normal;
+  return boxEntry(deep, start, end, &entry, &normal);
+}
+
 void resolvePlane(const PlaneCollider& plane, const ContactOptions& options, const Eigen::VectorXd& inverse_mass,
                   const Eigen::Matrix3Xd& previous, Eigen::Matrix3Xd& positions, Eigen::Matrix3Xd& velocities,
                   ContactStats& stats) {
@@ -142,7 +163,7 @@ void resolveSphere(const SphereCollider& sphere, const ContactOptions& options, 
     const Eigen::Vector3d end = positions.col(i) - center1;
     const double start_distance = start.norm() - radius;
     const double end_distance = end.norm() - radius;
-    const bool tunnelled = start_distance >= 0.0 && end_distance >= -options.depth_m &&
+    const bool tunnelled = notInside(start_distance, options.depth_m) && notInside(end_distance, options.depth_m) &&
                            segmentDistanceToOrigin(start, end - start) < radius - options.depth_m;
     Crossing crossing = classifyDeep(start_distance, end_distance, options.depth_m);
     if (tunnelled) crossing = Crossing::kSwept;
@@ -150,8 +171,10 @@ void resolveSphere(const SphereCollider& sphere, const ContactOptions& options, 
 
     Eigen::Vector3d normal;
     if (crossing == Crossing::kSwept) {
-      // Put it back where it first met the surface, in the sphere's frame, so it cannot come out the far side.
-      normal = (start + sphereEntry(start, end - start, radius) * (end - start)).normalized();
+      // Put it back where it first met the surface, in the sphere's frame, so it cannot come out the far side
+      // (a particle that started in the band below the surface meets it at s = 0, where it stood).
+      const Eigen::Vector3d entry = start + sphereEntry(start, end - start, radius) * (end - start);
+      normal = entry.norm() > kTinyLength_m ? Eigen::Vector3d(entry / entry.norm()) : Eigen::Vector3d::UnitZ();
     } else {
       normal = end.norm() > kTinyLength_m ? Eigen::Vector3d(end / end.norm()) : Eigen::Vector3d::UnitZ();
     }
@@ -179,11 +202,17 @@ void resolveBox(const BoxCollider& box, const ContactOptions& options, const Eig
     const bool entered = start_distance >= 0.0 && boxEntry(box, start, end, &entry, &entry_normal);
     Crossing crossing = classifyDeep(start_distance, end_distance, options.depth_m);
     if (entered && end_distance > 0.0) crossing = Crossing::kSwept;  // went in and out within the substep
+    if (crossedFromBand(box, options.depth_m, start_distance, end_distance, start, end)) crossing = Crossing::kSwept;
     if (crossing == Crossing::kNone && end_distance > options.depth_m) continue;
 
     if (crossing == Crossing::kSwept && entered) {
       respond(entry_normal, still, options, velocities.col(i));
       positions.col(i) = start + entry * (end - start);
+    } else if (crossing == Crossing::kSwept) {
+      // Started in the band just under a face and went deep: back onto that face, where it stood.
+      const Eigen::Vector3d normal = boxNormal(box, start);
+      respond(normal, still, options, velocities.col(i));
+      positions.col(i) = start - start_distance * normal;
     } else {
       const Eigen::Vector3d normal = boxNormal(box, end);
       const bool approaching = respond(normal, still, options, velocities.col(i));

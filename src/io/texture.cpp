@@ -1,5 +1,7 @@
 #include "cloth_sim/io/texture.h"
 
+#include "cloth_sim/core/simulation.h"
+
 #include <stb_image.h>
 
 #include <algorithm>
@@ -26,7 +28,9 @@ bool sampleTextureImage(const std::string& path, const Eigen::Matrix2Xd& uv, Eig
     *error = "texture " + path + ": " + (stbi_failure_reason() ? stbi_failure_reason() : "cannot be read");
     return false;
   }
-  const auto texel = [&](int x, int y) {
+  // The return type must be spelled out: with `auto` the lambda would return an Eigen expression that
+  // refers to a temporary Vector3f destroyed on return, and every sample would read freed stack.
+  const auto texel = [&](int x, int y) -> Eigen::Vector3f {
     const unsigned char* p = pixels.get() + (static_cast<std::size_t>(y) * width + x) * kChannels;
     return Eigen::Vector3f(p[0], p[1], p[2]) * kByteToUnit;
   };
@@ -44,6 +48,18 @@ bool sampleTextureImage(const std::string& path, const Eigen::Matrix2Xd& uv, Eig
     colors->col(i) = (1 - fy) * ((1 - fx) * texel(x0, y0) + fx * texel(x1, y0)) +
                      fy * ((1 - fx) * texel(x0, y1) + fx * texel(x1, y1));
   }
+  return true;
+}
+
+bool sceneVertexColors(const std::string& path, const Eigen::Matrix2Xd& uv, Eigen::Matrix3Xf* colors,
+                       std::string* error) {
+  if (path.empty()) {
+    *colors = checkerColors(uv);
+    return true;
+  }
+  Eigen::Matrix3Xf sampled;
+  if (!sampleTextureImage(path, uv, &sampled, error)) return false;
+  *colors = sampled;
   return true;
 }
 

@@ -54,6 +54,7 @@ bool ClothNode::start(std::string* error) {
 
   mesh_pub_ = pnh_.advertise<visualization_msgs::Marker>(Names::kMeshTopic, 2);
   state_pub_ = pnh_.advertise<cloth_sim::ClothState>(Names::kStateTopic, 2);
+  colliders_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>(Names::kCollidersTopic, 2);
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_);
   wind_sub_ = pnh_.subscribe(Names::kWindTopic, 10, &ClothNode::onWind, this);
   grasp_sub_ = pnh_.subscribe(Names::kGraspTopic, 10, &ClothNode::onGrasp, this);
@@ -114,15 +115,13 @@ std::unique_ptr<core::Simulation> ClothNode::buildSimulation(const std::string& 
     }
   }
   auto simulation = std::make_unique<core::Simulation>(options);
-  if (!options.texture.empty()) {
-    Eigen::Matrix3Xf colors;
-    std::string texture_error;
-    if (!core::sampleTextureImage(options.texture, simulation->grid().uv, &colors, &texture_error)) {
-      *error = "scene '" + scene + "': " + texture_error;
-      return nullptr;
-    }
-    simulation->setVertexColors(colors);
+  Eigen::Matrix3Xf colors;
+  std::string texture_error;
+  if (!core::sceneVertexColors(options.texture, simulation->grid().uv, &colors, &texture_error)) {
+    *error = "scene '" + scene + "': " + texture_error;
+    return nullptr;
   }
+  simulation->setVertexColors(colors);
   return simulation;
 }
 
@@ -185,6 +184,9 @@ void ClothNode::publish(const ros::Time& stamp) {
   }
   if (mesh_pub_.getNumSubscribers() > 0) mesh_pub_.publish(toMeshMarker(*simulation_, frame_id_, stamp));
   if (state_pub_.getNumSubscribers() > 0) state_pub_.publish(toStateMessage(*simulation_, frame_id_, stamp));
+  if (colliders_pub_.getNumSubscribers() > 0 && !simulation_->options().colliders.empty()) {
+    colliders_pub_.publish(toColliderMarkers(*simulation_, frame_id_, stamp));
+  }
   const auto transforms = toSphereTransforms(*simulation_, frame_id_, stamp);
   if (!transforms.empty()) tf_broadcaster_.sendTransform(transforms);
 }
@@ -318,8 +320,10 @@ void ClothNode::onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t) {
     options.springs[k].damping_N_s_per_m = damping[k];
   }
   options.air_damping_N_s_per_m = config.air_damping;
+  // The wind sliders count only when they moved: comparing them with the wind in force would undo every
+  // wind that came in on ~wind (the sliders do not follow the topic) at the next reconfigure of anything.
   const Eigen::Vector3d wind(config.wind_x, config.wind_y, config.wind_z);
-  if (wind != options.wind.velocity_m_per_s) {
+  if (wind != reconfigure_wind_) {
     options.wind.velocity_m_per_s = wind;
     options.wind_enabled = true;
   }
@@ -330,26 +334,34 @@ void ClothNode::onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t) {
   options.substeps = config.substeps;
   if (!error.empty() || !simulation_->retune(options, &error)) {
     ROS_WARN("cloth_node: reconfigure refused: %s", error.c_str());
-    pushConfig();
   }
+  // Answer and publish what is in force (a refused change is not; a ~wind is), so the sliders follow.
+  fillConfig(&config);
+  reconfigure_wind_ = Eigen::Vector3d(config.wind_x, config.wind_y, config.wind_z);
+}
+
+void ClothNode::fillConfig(cloth_sim::ClothConfig* config) const {
+  const core::SceneOptions& o = simulation_->options();
+  cloth_sim::ClothConfig& c = *config;
+  c.structural_stiffness = o.springs[0].stiffness_N_per_m;
+  c.structural_damping = o.springs[0].damping_N_s_per_m;
+  c.shear_stiffness = o.springs[1].stiffness_N_per_m;
+  c.shear_damping = o.springs[1].damping_N_s_per_m;
+  c.bend_stiffness = o.springs[2].stiffness_N_per_m;
+  c.bend_damping = o.springs[2].damping_N_s_per_m;
+  c.air_damping = o.air_damping_N_s_per_m;
+  c.wind_x = o.wind.velocity_m_per_s.x();
+  c.wind_y = o.wind.velocity_m_per_s.y();
+  c.wind_z = o.wind.velocity_m_per_s.z();
+  c.integrator = core::integratorName(o.integrator);
+  c.substeps = o.substeps;
 }
 
 void ClothNode::pushConfig() {
   if (!reconfigure_) return;
-  const core::SceneOptions& o = simulation_->options();
   cloth_sim::ClothConfig config;
-  config.structural_stiffness = o.springs[0].stiffness_N_per_m;
-  config.structural_damping = o.springs[0].damping_N_s_per_m;
-  config.shear_stiffness = o.springs[1].stiffness_N_per_m;
-  config.shear_damping = o.springs[1].damping_N_s_per_m;
-  config.bend_stiffness = o.springs[2].stiffness_N_per_m;
-  config.bend_damping = o.springs[2].damping_N_s_per_m;
-  config.air_damping = o.air_damping_N_s_per_m;
-  config.wind_x = o.wind.velocity_m_per_s.x();
-  config.wind_y = o.wind.velocity_m_per_s.y();
-  config.wind_z = o.wind.velocity_m_per_s.z();
-  config.integrator = core::integratorName(o.integrator);
-  config.substeps = o.substeps;
+  fillConfig(&config);
+  reconfigure_wind_ = Eigen::Vector3d(config.wind_x, config.wind_y, config.wind_z);
   reconfigure_->updateConfig(config);
 }
 

@@ -1,5 +1,7 @@
 #include "cloth_sim/ros/conversions.h"
 
+#include <Eigen/Geometry>
+
 namespace cloth_sim {
 
 namespace {
@@ -21,7 +23,65 @@ std_msgs::ColorRGBA toColor(const Eigen::Vector3f& rgb) {
   return color;
 }
 
+/// Drawn size of a plane collider (planes are infinite), m, and the thickness of the slab drawn for it.
+constexpr double kPlaneDrawnSide_m = 4.0;
+constexpr double kPlaneDrawnThickness_m = 0.005;
+constexpr float kColliderAlpha = 0.6f;
+
+visualization_msgs::Marker colliderMarker(const std::string& frame_id, const ros::Time& stamp, const std::string& ns,
+                                          int id, int type, const Eigen::Vector3d& center_m,
+                                          const Eigen::Quaterniond& orientation, const Eigen::Vector3d& size_m) {
+  visualization_msgs::Marker marker;
+  marker.header.frame_id = frame_id;
+  marker.header.stamp = stamp;
+  marker.ns = ns;
+  marker.id = id;
+  marker.type = type;
+  marker.action = visualization_msgs::Marker::ADD;
+  marker.pose.position = toPoint(center_m);
+  marker.pose.orientation.w = orientation.w();
+  marker.pose.orientation.x = orientation.x();
+  marker.pose.orientation.y = orientation.y();
+  marker.pose.orientation.z = orientation.z();
+  marker.scale.x = size_m.x();
+  marker.scale.y = size_m.y();
+  marker.scale.z = size_m.z();
+  marker.color.r = marker.color.g = marker.color.b = 0.55f;
+  marker.color.a = kColliderAlpha;
+  return marker;
+}
+
 }  // namespace
+
+visualization_msgs::MarkerArray toColliderMarkers(const core::Simulation& simulation, const std::string& frame_id,
+                                                  const ros::Time& stamp) {
+  visualization_msgs::MarkerArray markers;
+  const core::ColliderSet& colliders = simulation.options().colliders;
+  const std::vector<Eigen::Vector3d> centers = simulation.sphereCenters();
+  const Eigen::Quaterniond upright = Eigen::Quaterniond::Identity();
+  for (std::size_t i = 0; i < centers.size(); ++i) {
+    const double diameter_m = 2.0 * colliders.spheres[i].radius_m;
+    markers.markers.push_back(colliderMarker(frame_id, stamp, "spheres", static_cast<int>(i),
+                                             visualization_msgs::Marker::SPHERE, centers[i], upright,
+                                             Eigen::Vector3d::Constant(diameter_m)));
+  }
+  for (std::size_t i = 0; i < colliders.boxes.size(); ++i) {
+    const core::BoxCollider& box = colliders.boxes[i];
+    markers.markers.push_back(colliderMarker(frame_id, stamp, "boxes", static_cast<int>(i),
+                                             visualization_msgs::Marker::CUBE, 0.5 * (box.min_m + box.max_m), upright,
+                                             box.max_m - box.min_m));
+  }
+  for (std::size_t i = 0; i < colliders.planes.size(); ++i) {
+    const core::PlaneCollider& plane = colliders.planes[i];
+    // The slab's top face is the plane itself, so the cloth seems to rest on it, not sink into it.
+    const Eigen::Vector3d center_m = -plane.offset_m * plane.normal - 0.5 * kPlaneDrawnThickness_m * plane.normal;
+    markers.markers.push_back(colliderMarker(
+        frame_id, stamp, "planes", static_cast<int>(i), visualization_msgs::Marker::CUBE, center_m,
+        Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), plane.normal),
+        Eigen::Vector3d(kPlaneDrawnSide_m, kPlaneDrawnSide_m, kPlaneDrawnThickness_m)));
+  }
+  return markers;
+}
 
 visualization_msgs::Marker toMeshMarker(const core::Simulation& simulation, const std::string& frame_id,
                                         const ros::Time& stamp) {

@@ -1,6 +1,752 @@
-// Placeholder replaced by the rostest suite.
+// rostest client for cloth_node. Each test/ros/*.test starts the node in one configuration and runs
+// this client with a --gtest_filter for the suites that configuration proves:
+//   mesh_rate.test    Mesh.*                                   (two 8x8 nodes, one with a custom frame_id)
+//   interaction.test  Wind.*:BadInput.*:Grasp.*                (hanging scene, wall time)
+//   services.test     Services.*:LoadScene.*:Reconfigure.*:Diagnostics.*
+//   ball.test         Ball.*                                   (config/scenes/ball.yaml)
+//   sim_time.test     SimTime.*                                (/use_sim_time, the test drives /clock)
+//   bad_params.test   BadParams.*                              (no node: the tests start it themselves)
+// Every wait is a condition with a wall-clock deadline; no test sleeps to "let things settle".
+#include "test_helpers.h"
+
+#include <cloth_sim/ClothState.h>
+#include <cloth_sim/Grasp.h>
+#include <cloth_sim/LoadScene.h>
+#include <cloth_sim/Step.h>
+#include <diagnostic_msgs/DiagnosticArray.h>
+#include <dynamic_reconfigure/Reconfigure.h>
+#include <geometry_msgs/Vector3Stamped.h>
+#include <ros/package.h>
+#include <rosgraph_msgs/Clock.h>
+#include <rosgraph_msgs/Log.h>
+#include <std_srvs/SetBool.h>
+#include <std_srvs/Trigger.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/static_transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
+#include <visualization_msgs/Marker.h>
+
+#include <Eigen/Core>
 #include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+using cloth_sim::ClothState;
+using namespace cloth_sim_test;
+
+namespace {
+
+/// One frame at the node's 50 Hz.
+constexpr double kFrame_s = 0.02;
+/// The hanging scene's grid (config/scenes/hanging.yaml).
+constexpr std::uint32_t kHangingRows = 20;
+constexpr std::uint32_t kHangingCols = 20;
+/// How far the mean y of the cloth must move before we call it "pushed": 5 cm. Without wind the hanging
+/// cloth stays exactly in the y = 0 plane, and a 5 m/s wind swings it by tens of cm.
+constexpr double kPushed_m = 0.05;
+
+std::string privateParam(const std::string& name, const std::string& fallback) {
+  std::string value;
+  ros::NodeHandle("~").param<std::string>(name, value, fallback);
+  return value;
+}
+
+/// The node under test (~node, default /cloth_node).
+std::string nodeName() { return privateParam("node", "/cloth_node"); }
+std::string nodeTopic(const std::string& name) { return nodeName() + "/" + name; }
+
+double meanY(const ClothState& state) {
+  double sum = 0.0;
+  for (const auto& p : state.positions) sum += p.y;
+  return state.positions.empty() ? 0.0 : sum / state.positions.size();
+}
+
+bool finite(const geometry_msgs::Point& p) { return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z); }
+
+bool allFinite(const ClothState& state) {
+  for (const auto& p : state.positions) {
+    if (!finite(p)) return false;
+  }
+  for (const auto& v : state.velocities) {
+    if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) return false;
+  }
+  return true;
+}
+
+double distance(const geometry_msgs::Point& a, const geometry_msgs::Point& b) {
+  return std::sqrt((a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y) + (a.z - b.z) * (a.z - b.z));
+}
+
+/// Bit-for-bit comparison of positions and velocities; reports the first difference.
+::testing::AssertionResult sameBits(const ClothState& a, const ClothState& b) {
+  if (a.positions.size() != b.positions.size() || a.velocities.size() != b.velocities.size()) {
+    return ::testing::AssertionFailure() << "sizes differ: " << a.positions.size() << " vs " << b.positions.size();
+  }
+  for (std::size_t i = 0; i < a.positions.size(); ++i) {
+    const auto& p = a.positions[i];
+    const auto& q = b.positions[i];
+    if (p.x != q.x || p.y != q.y || p.z != q.z) {
+      return ::testing::AssertionFailure() << "position " << i << " differs: (" << p.x << ", " << p.y << ", " << p.z
+                                           << ") vs (" << q.x << ", " << q.y << ", " << q.z << ")";
+    }
+    const auto& u = a.velocities[i];
+    const auto& w = b.velocities[i];
+    if (u.x != w.x || u.y != w.y || u.z != w.z) {
+      return ::testing::AssertionFailure() << "velocity " << i << " differs";
+    }
+  }
+  return ::testing::AssertionSuccess();
+}
+
+/// Checks one node's mesh marker: a TRIANGLE_LIST of 6 (rows-1)(cols-1) finite points with as many
+/// colours in [0, 1], in the expected frame.
+void checkMesh(const std::string& node, const std::string& frame_id, std::uint32_t rows, std::uint32_t cols) {
+  SCOPED_TRACE("node " + node);
+  ros::NodeHandle nh;
+  Monitor<visualization_msgs::Marker> meshes(nh, node + "/mesh");
+  Monitor<ClothState> states(nh, node + "/state");
+  const auto mesh = meshes.waitForNext(15.0, 0);
+  ASSERT_TRUE(mesh) << "no marker on " << node << "/mesh";
+  const auto state = states.waitForNext(15.0, 0);
+  ASSERT_TRUE(state) << "no state on " << node << "/state";
+  EXPECT_EQ(state->rows, rows);
+  EXPECT_EQ(state->cols, cols);
+  EXPECT_EQ(state->header.frame_id, frame_id);
+
+  EXPECT_EQ(mesh->type, visualization_msgs::Marker::TRIANGLE_LIST);
+  EXPECT_EQ(mesh->action, visualization_msgs::Marker::ADD);
+  EXPECT_EQ(mesh->header.frame_id, frame_id);
+  const std::size_t expected_points = 6u * (rows - 1) * (cols - 1);
+  EXPECT_EQ(mesh->points.size(), expected_points);
+  EXPECT_EQ(mesh->colors.size(), expected_points);
+  std::size_t bad_points = 0;
+  for (const auto& p : mesh->points) bad_points += finite(p) ? 0 : 1;
+  EXPECT_EQ(bad_points, 0u) << "non-finite mesh points";
+  std::size_t bad_colors = 0;
+  for (const auto& c : mesh->colors) {
+    const bool ok = std::isfinite(c.r) && std::isfinite(c.g) && std::isfinite(c.b) && std::isfinite(c.a) &&
+                    c.r >= 0 && c.r <= 1 && c.g >= 0 && c.g <= 1 && c.b >= 0 && c.b <= 1 && c.a > 0;
+    bad_colors += ok ? 0 : 1;
+  }
+  EXPECT_EQ(bad_colors, 0u) << "colours outside [0, 1] or transparent";
+  EXPECT_TRUE(allFinite(*state));
+}
+
+}  // namespace
+
+// ---- 1. Mesh content (mesh_rate.test; the rate itself is the hztest there) ------------------------
+
+TEST(Mesh, TriangleListOfFiniteColouredPointsInFrameId) {
+  ros::NodeHandle pnh("~");
+  int rows = 0;
+  int cols = 0;
+  pnh.param("rows", rows, 8);
+  pnh.param("cols", cols, 8);
+  checkMesh(nodeName(), "world", rows, cols);
+}
+
+TEST(Mesh, CustomFrameIdIsUsed) {
+  int rows = 0;
+  int cols = 0;
+  ros::NodeHandle pnh("~");
+  pnh.param("rows", rows, 8);
+  pnh.param("cols", cols, 8);
+  checkMesh(privateParam("framed_node", "/cloth_node_framed"), privateParam("framed_frame", "cloth_frame"), rows,
+            cols);
+}
+
+// ---- Fixture for one long-running node in wall time --------------------------------------------
+
+class NodeTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    states_ = std::make_unique<Monitor<ClothState>>(nh_, nodeTopic("state"));
+    log_ = std::make_unique<Monitor<rosgraph_msgs::Log>>(nh_, "/rosout", 1000);
+    ASSERT_TRUE(states_->waitForNext(15.0, 0)) << "no ClothState on " << nodeTopic("state");
+  }
+
+  /// A fresh hanging scene: load_scene builds a new simulation, so wind, grasps and tuning from earlier
+  /// tests are gone. Paused or running as asked; when paused, *frame0 receives the frame-0 state.
+  void freshScene(bool paused, ClothState::ConstPtr* frame0 = nullptr) {
+    ASSERT_NO_FATAL_FAILURE(setPaused(true));
+    cloth_sim::LoadScene load;
+    load.request.scene = "hanging";
+    const std::uint64_t since = states_->count();
+    ASSERT_TRUE(callService(nodeTopic("load_scene"), load));
+    ASSERT_TRUE(load.response.success) << load.response.message;
+    std::uint64_t index = 0;
+    const auto first = states_->waitFor([](const ClothState& s) { return s.frame == 0; }, 10.0, since, &index);
+    ASSERT_TRUE(first) << "no frame-0 state after load_scene";
+    ASSERT_EQ(first->rows, kHangingRows);
+    ASSERT_EQ(first->cols, kHangingCols);
+    if (frame0) *frame0 = first;
+    if (!paused) ASSERT_NO_FATAL_FAILURE(setPaused(false));
+  }
+
+  void setPaused(bool paused) {
+    std_srvs::SetBool pause;
+    pause.request.data = paused;
+    ASSERT_TRUE(callService(nodeTopic("pause"), pause));
+    ASSERT_TRUE(pause.response.success) << pause.response.message;
+  }
+
+  /// While paused: steps `frames` and returns the state the step published (sim_time as answered).
+  ClothState::ConstPtr step(std::uint32_t frames, cloth_sim::Step::Response* answer = nullptr) {
+    cloth_sim::Step step;
+    step.request.frames = frames;
+    const std::uint64_t since = states_->count();
+    if (!callService(nodeTopic("step"), step)) return nullptr;
+    if (answer) *answer = step.response;
+    if (!step.response.success) {
+      ADD_FAILURE() << "step " << frames << " refused: " << step.response.message;
+      return nullptr;
+    }
+    const double sim_time = step.response.sim_time;
+    auto state = states_->waitFor([&](const ClothState& s) { return s.sim_time == sim_time; }, 10.0, since);
+    if (!state) ADD_FAILURE() << "no state with sim_time " << sim_time << " after the step";
+    return state;
+  }
+
+  /// While paused: reset, and the frame-0 state it published.
+  ClothState::ConstPtr reset() {
+    std_srvs::Trigger trigger;
+    const std::uint64_t since = states_->count();
+    if (!callService(nodeTopic("reset"), trigger)) return nullptr;
+    EXPECT_TRUE(trigger.response.success) << trigger.response.message;
+    return states_->waitFor([](const ClothState& s) { return s.frame == 0; }, 10.0, since);
+  }
+
+  /// A log line from the node containing `text`, received after `since`.
+  rosgraph_msgs::Log::ConstPtr waitForLog(const std::string& text, double timeout_s, std::uint64_t since = 0) {
+    const std::string node = nodeName();
+    return log_->waitFor(
+        [&](const rosgraph_msgs::Log& m) { return m.name == node && m.msg.find(text) != std::string::npos; },
+        timeout_s, since);
+  }
+
+  ros::NodeHandle nh_;
+  std::unique_ptr<Monitor<ClothState>> states_;
+  std::unique_ptr<Monitor<rosgraph_msgs::Log>> log_;
+};
+
+// ---- 2. Wind (interaction.test) -------------------------------------------------------------------
+
+class Wind : public NodeTest {
+ protected:
+  /// Publishes `wind` (again every 0.25 s: a wind in a frame the node cannot resolve yet is dropped)
+  /// until the cloth's mean y exceeds its value at the start by kPushed_m.
+  void expectPushedAlongY(const geometry_msgs::Vector3Stamped& wind) {
+    ros::Publisher publisher = nh_.advertise<geometry_msgs::Vector3Stamped>(nodeTopic("wind"), 10);
+    ASSERT_TRUE(waitForSubscribers(publisher, 1, 10.0)) << "the node does not subscribe to ~wind";
+    const std::uint64_t since = states_->count();
+    const auto start = states_->waitForNext(5.0, since);
+    ASSERT_TRUE(start);
+    const double y0 = meanY(*start);
+    ClothState::ConstPtr pushed;
+    const auto deadline = deadlineIn(15.0);
+    while (!pushed && Clock::now() < deadline) {
+      publisher.publish(wind);
+      pushed = states_->waitFor([&](const ClothState& s) { return meanY(s) > y0 + kPushed_m; }, 0.25, since);
+    }
+    ASSERT_TRUE(pushed) << "mean y stayed near " << y0 << " m (last " << meanY(*states_->latest()) << " m)";
+    EXPECT_TRUE(allFinite(*pushed));
+  }
+};
+
+TEST_F(Wind, PushesTheClothDownwind) {
+  ASSERT_NO_FATAL_FAILURE(freshScene(false));
+  geometry_msgs::Vector3Stamped wind;
+  wind.header.frame_id = "world";
+  wind.vector.y = 5.0;
+  expectPushedAlongY(wind);
+}
+
+TEST_F(Wind, WindInAnotherFrameIsRotatedIntoFrameId) {
+  // wind_frame is world turned +90 deg about z: its x axis is world's y. A 5 m/s wind along wind_frame's
+  // x must push the cloth along world +y; unrotated it would blow along the cloth's plane (no push),
+  // rotated the wrong way it would push towards -y.
+  tf2_ros::StaticTransformBroadcaster broadcaster;
+  geometry_msgs::TransformStamped transform;
+  transform.header.stamp = ros::Time::now();
+  transform.header.frame_id = "world";
+  transform.child_frame_id = "wind_frame";
+  transform.transform.rotation.z = std::sin(M_PI / 4.0);
+  transform.transform.rotation.w = std::cos(M_PI / 4.0);
+  broadcaster.sendTransform(transform);
+
+  ASSERT_NO_FATAL_FAILURE(freshScene(false));
+  geometry_msgs::Vector3Stamped wind;
+  wind.header.frame_id = "wind_frame";
+  wind.vector.x = 5.0;
+  expectPushedAlongY(wind);
+}
+
+// ---- 3. Bad input is dropped (interaction.test) ---------------------------------------------------
+
+TEST_F(NodeTest, BadInputIsDroppedAndTheClothUntouched) {
+  Monitor<visualization_msgs::Marker> meshes(nh_, nodeTopic("mesh"));
+  constexpr std::uint32_t kFrames = 10;
+  // Reference: kFrames paused steps from frame 0 with no input at all.
+  ASSERT_NO_FATAL_FAILURE(freshScene(true));
+  // load_scene logs at INFO: once that line arrives, our /rosout subscription is connected to the node.
+  ASSERT_TRUE(waitForLog("loaded scene", 10.0)) << "no INFO from the node on /rosout";
+  const auto reference = step(kFrames);
+  ASSERT_TRUE(reference);
+  ASSERT_EQ(reference->frame, kFrames);
+
+  ASSERT_TRUE(reset());
+  ros::Publisher wind_pub = nh_.advertise<geometry_msgs::Vector3Stamped>(nodeTopic("wind"), 10);
+  ros::Publisher grasp_pub = nh_.advertise<cloth_sim::Grasp>(nodeTopic("grasp"), 10);
+  ASSERT_TRUE(waitForSubscribers(wind_pub, 1, 10.0));
+  ASSERT_TRUE(waitForSubscribers(grasp_pub, 1, 10.0));
+  const std::uint64_t log_since = log_->count();
+  geometry_msgs::Vector3Stamped nan_wind;
+  nan_wind.header.frame_id = "world";
+  nan_wind.vector.x = std::numeric_limits<double>::quiet_NaN();
+  nan_wind.vector.y = 1.0;
+  wind_pub.publish(nan_wind);
+  cloth_sim::Grasp grasp;
+  grasp.header.frame_id = "world";
+  grasp.id = 7;
+  grasp.action = cloth_sim::Grasp::GRAB;
+  grasp.particle = 1000000000;
+  grasp.target.z = 1.0;
+  grasp_pub.publish(grasp);
+  // The node says it dropped them: only then do we know it has handled them before the steps below.
+  EXPECT_TRUE(waitForLog("dropped ~wind", 10.0, log_since)) << "no warning about the NaN wind";
+  EXPECT_TRUE(waitForLog("dropped ~grasp", 10.0, log_since)) << "no warning about particle 1000000000";
+
+  const auto after = step(kFrames);
+  ASSERT_TRUE(after);
+  EXPECT_EQ(after->frame, kFrames);
+  EXPECT_TRUE(allFinite(*after));
+  EXPECT_TRUE(sameBits(*reference, *after)) << "the dropped input changed the cloth";
+
+  // Alive: it keeps publishing, and the mesh it publishes is finite.
+  const auto mesh = meshes.waitForNext(10.0, meshes.count());
+  ASSERT_TRUE(mesh) << "the node stopped publishing its mesh";
+  for (const auto& p : mesh->points) ASSERT_TRUE(finite(p));
+  EXPECT_TRUE(states_->waitForNext(10.0, states_->count())) << "the node stopped publishing its state";
+}
+
+// ---- 4. Grasp (interaction.test) ------------------------------------------------------------------
+
+TEST_F(NodeTest, GraspReachesTargetAndReleaseLetsItFall) {
+  ClothState::ConstPtr frame0;
+  ASSERT_NO_FATAL_FAILURE(freshScene(false, &frame0));
+  const int particle = static_cast<int>((kHangingRows - 1) * kHangingCols);  // bottom-left corner, free
+  // Lift the corner 0.3 m up and 0.3 m out of the cloth's plane.
+  geometry_msgs::Point target = frame0->positions[particle];
+  target.y += 0.3;
+  target.z += 0.3;
+  // Tolerance: the grasp spring (500 N/m) can at most carry the whole cloth's weight (0.5 kg * 9.81 =
+  // 4.9 N), a static error of <= 1 cm; 2 cm leaves room for the residual swing.
+  constexpr double kStiffness_N_per_m = 500.0;
+  constexpr double kTolerance_m = 0.02;
+  ros::Publisher grasp_pub = nh_.advertise<cloth_sim::Grasp>(nodeTopic("grasp"), 10);
+  ASSERT_TRUE(waitForSubscribers(grasp_pub, 1, 10.0));
+  cloth_sim::Grasp grab;
+  grab.header.frame_id = "world";
+  grab.id = 1;
+  grab.action = cloth_sim::Grasp::GRAB;
+  grab.particle = particle;
+  grab.target = target;
+  grab.stiffness = kStiffness_N_per_m;
+  const std::uint64_t since = states_->count();
+  grasp_pub.publish(grab);
+  const auto reached = states_->waitFor(
+      [&](const ClothState& s) { return distance(s.positions[particle], target) < kTolerance_m; }, 20.0, since);
+  ASSERT_TRUE(reached) << "particle " << particle << " ended "
+                       << distance(states_->latest()->positions[particle], target) << " m from its target";
+  EXPECT_TRUE(allFinite(*reached));
+
+  cloth_sim::Grasp release;
+  release.id = 1;
+  release.action = cloth_sim::Grasp::RELEASE;
+  const std::uint64_t release_since = states_->count();
+  const double z_held = states_->latest()->positions[particle].z;
+  grasp_pub.publish(release);
+  const auto fallen = states_->waitFor(
+      [&](const ClothState& s) { return s.positions[particle].z < z_held - 0.1; }, 10.0, release_since);
+  EXPECT_TRUE(fallen) << "released particle stayed at z = " << states_->latest()->positions[particle].z
+                      << " m (held at " << z_held << " m)";
+}
+
+// ---- 5. reset, pause and step (services.test) -----------------------------------------------------
+
+TEST_F(NodeTest, ResetRestoresTheFirstFrame) {
+  ClothState::ConstPtr frame0;
+  ASSERT_NO_FATAL_FAILURE(freshScene(true, &frame0));
+  ASSERT_NO_FATAL_FAILURE(setPaused(false));
+  const auto later = states_->waitFor([](const ClothState& s) { return s.frame >= 25; }, 15.0, states_->count());
+  ASSERT_TRUE(later) << "the running node did not reach frame 25";
+  ASSERT_FALSE(sameBits(*frame0, *later)) << "the cloth did not move in 25 frames: the test would prove nothing";
+
+  std_srvs::Trigger trigger;
+  const std::uint64_t since = states_->count();
+  ASSERT_TRUE(callService(nodeTopic("reset"), trigger));
+  EXPECT_TRUE(trigger.response.success) << trigger.response.message;
+  const auto reset = states_->waitFor([](const ClothState& s) { return s.frame == 0; }, 10.0, since);
+  ASSERT_TRUE(reset) << "no frame-0 state after reset";
+  EXPECT_EQ(reset->frame, 0u);
+  EXPECT_EQ(reset->sim_time, 0.0);
+  EXPECT_TRUE(sameBits(*frame0, *reset));
+}
+
+TEST_F(NodeTest, PausedStepAdvancesExactlyNFrames) {
+  ASSERT_NO_FATAL_FAILURE(freshScene(false));
+  ASSERT_TRUE(states_->waitFor([](const ClothState& s) { return s.frame >= 5; }, 15.0, states_->count()));
+  ASSERT_NO_FATAL_FAILURE(setPaused(true));
+  cloth_sim::Step::Response first_answer;
+  const auto first = step(1, &first_answer);
+  ASSERT_TRUE(first);
+  constexpr std::uint32_t kFrames = 7;
+  cloth_sim::Step::Response answer;
+  const auto stepped = step(kFrames, &answer);
+  ASSERT_TRUE(stepped);
+  EXPECT_EQ(stepped->frame, first->frame + kFrames);
+  // Frame times are computed from the frame start, so N frames add N * 0.02 s up to rounding (1e-9 s).
+  EXPECT_NEAR(answer.sim_time - first_answer.sim_time, kFrames * kFrame_s, 1e-9);
+  EXPECT_EQ(stepped->sim_time, answer.sim_time);
+
+  // Paused: the node keeps publishing the very same state.
+  const std::uint64_t since = states_->count();
+  for (int k = 0; k < 5; ++k) {
+    const auto next = states_->waitForNext(10.0, since + k);
+    ASSERT_TRUE(next) << "the paused node stopped publishing";
+    EXPECT_EQ(next->frame, stepped->frame);
+    EXPECT_TRUE(sameBits(*stepped, *next));
+  }
+}
+
+TEST_F(NodeTest, StepIsRefusedUnlessPaused) {
+  ASSERT_NO_FATAL_FAILURE(freshScene(false));
+  cloth_sim::Step step;
+  step.request.frames = 1;
+  ASSERT_TRUE(callService(nodeTopic("step"), step));
+  EXPECT_FALSE(step.response.success);
+  EXPECT_FALSE(step.response.message.empty());
+  // And zero frames is refused even while paused.
+  ASSERT_NO_FATAL_FAILURE(setPaused(true));
+  cloth_sim::Step zero;
+  zero.request.frames = 0;
+  ASSERT_TRUE(callService(nodeTopic("step"), zero));
+  EXPECT_FALSE(zero.response.success);
+}
+
+// ---- 6. load_scene (services.test) ----------------------------------------------------------------
+
+TEST_F(NodeTest, LoadSceneOfAMissingSceneKeepsTheOldOne) {
+  ASSERT_NO_FATAL_FAILURE(freshScene(false));
+  cloth_sim::LoadScene load;
+  load.request.scene = "no_such_scene";
+  ASSERT_TRUE(callService(nodeTopic("load_scene"), load));
+  EXPECT_FALSE(load.response.success);
+  EXPECT_NE(load.response.message.find("no_such_scene"), std::string::npos) << load.response.message;
+  // The old scene keeps running: 10 more frames, same grid.
+  const std::uint64_t since = states_->count();
+  const auto now = states_->waitForNext(10.0, since);
+  ASSERT_TRUE(now);
+  const auto later =
+      states_->waitFor([&](const ClothState& s) { return s.frame >= now->frame + 10; }, 15.0, since);
+  ASSERT_TRUE(later) << "the old scene stopped running";
+  EXPECT_EQ(later->rows, kHangingRows);
+  EXPECT_EQ(later->cols, kHangingCols);
+}
+
+TEST_F(NodeTest, LoadSceneOfAFilePathWorks) {
+  ASSERT_NO_FATAL_FAILURE(freshScene(false));
+  cloth_sim::LoadScene load;
+  load.request.scene = ros::package::getPath("cloth_sim") + "/test/ros/scenes/small.yaml";
+  const std::uint64_t since = states_->count();
+  ASSERT_TRUE(callService(nodeTopic("load_scene"), load));
+  ASSERT_TRUE(load.response.success) << load.response.message;
+  const auto small = states_->waitFor([](const ClothState& s) { return s.rows == 6 && s.cols == 5; }, 10.0, since);
+  ASSERT_TRUE(small) << "no 6x5 state after loading small.yaml";
+  EXPECT_EQ(small->positions.size(), 30u);
+}
+
+// ---- 10. dynamic_reconfigure (services.test) ------------------------------------------------------
+
+namespace {
+
+dynamic_reconfigure::Reconfigure intParameter(const std::string& name, int value) {
+  dynamic_reconfigure::Reconfigure reconfigure;
+  dynamic_reconfigure::IntParameter parameter;
+  parameter.name = name;
+  parameter.value = value;
+  reconfigure.request.config.ints.push_back(parameter);
+  return reconfigure;
+}
+
+std::string stringIn(const dynamic_reconfigure::Config& config, const std::string& name) {
+  for (const auto& parameter : config.strs) {
+    if (parameter.name == name) return parameter.value;
+  }
+  return "<missing>";
+}
+
+}  // namespace
+
+TEST_F(NodeTest, ReconfigureSubstepsChangesTheState) {
+  ASSERT_NO_FATAL_FAILURE(freshScene(false));
+  ASSERT_EQ(states_->waitForNext(10.0, states_->count())->substeps, 40u);
+  auto reconfigure = intParameter("substeps", 80);
+  const std::uint64_t since = states_->count();
+  ASSERT_TRUE(callService(nodeTopic("set_parameters"), reconfigure));
+  EXPECT_TRUE(states_->waitFor([](const ClothState& s) { return s.substeps == 80; }, 10.0, since))
+      << "ClothState.substeps stayed " << states_->latest()->substeps;
+}
+
+TEST_F(NodeTest, ReconfigureRefusesAnUnknownIntegrator) {
+  ASSERT_NO_FATAL_FAILURE(freshScene(false));
+  const std::string before = states_->waitForNext(10.0, states_->count())->integrator;
+  dynamic_reconfigure::Reconfigure reconfigure;
+  dynamic_reconfigure::StrParameter parameter;
+  parameter.name = "integrator";
+  parameter.value = "bogus";
+  reconfigure.request.config.strs.push_back(parameter);
+  ASSERT_TRUE(callService(nodeTopic("set_parameters"), reconfigure));
+  // The answer is the configuration in force: the old integrator, not the refused one.
+  EXPECT_EQ(stringIn(reconfigure.response.config, "integrator"), before);
+  // Alive, still on the old integrator.
+  const std::uint64_t since = states_->count();
+  const auto now = states_->waitForNext(10.0, since);
+  ASSERT_TRUE(now);
+  const auto later = states_->waitFor([&](const ClothState& s) { return s.frame >= now->frame + 5; }, 10.0, since);
+  ASSERT_TRUE(later) << "the node stopped after the refused reconfigure";
+  EXPECT_EQ(later->integrator, before);
+}
+
+TEST_F(NodeTest, ReconfigureKeepsTheWindFromTheTopic) {
+  // A reconfigure of substeps carries the wind sliders too; they must not overwrite a wind that came
+  // in on ~wind. Paused, so each check is a fixed number of frames.
+  ClothState::ConstPtr frame0;
+  ASSERT_NO_FATAL_FAILURE(freshScene(true, &frame0));
+  ros::Publisher publisher = nh_.advertise<geometry_msgs::Vector3Stamped>(nodeTopic("wind"), 10);
+  ASSERT_TRUE(waitForSubscribers(publisher, 1, 10.0));
+  geometry_msgs::Vector3Stamped wind;
+  wind.header.frame_id = "world";
+  wind.vector.y = 5.0;
+  publisher.publish(wind);
+  // Wait until the wind acts (step until the cloth leaves the y = 0 plane).
+  const auto deadline = deadlineIn(10.0);
+  bool blowing = false;
+  while (!blowing && Clock::now() < deadline) {
+    const auto s = step(1);
+    ASSERT_TRUE(s);
+    blowing = meanY(*s) > 0.0;
+  }
+  ASSERT_TRUE(blowing) << "the wind never acted";
+
+  auto reconfigure = intParameter("substeps", 40);
+  ASSERT_TRUE(callService(nodeTopic("set_parameters"), reconfigure));
+  ASSERT_TRUE(reset());  // reset keeps tuning and wind
+  const auto s = step(25);
+  ASSERT_TRUE(s);
+  EXPECT_GT(meanY(*s), 1e-3) << "the reconfigure switched the topic's wind off";
+}
+
+TEST_F(NodeTest, ReconfigureWindSliderBlows) {
+  // The other half of the rule above: moving the wind sliders does set the wind.
+  ASSERT_NO_FATAL_FAILURE(freshScene(true));
+  dynamic_reconfigure::Reconfigure reconfigure;
+  dynamic_reconfigure::DoubleParameter parameter;
+  parameter.name = "wind_y";
+  parameter.value = 5.0;
+  reconfigure.request.config.doubles.push_back(parameter);
+  ASSERT_TRUE(callService(nodeTopic("set_parameters"), reconfigure));
+  const auto s = step(25);
+  ASSERT_TRUE(s);
+  EXPECT_GT(meanY(*s), 1e-3) << "the wind_y slider did not blow";
+}
+
+// ---- 11. Diagnostics (services.test) --------------------------------------------------------------
+
+TEST_F(NodeTest, DiagnosticsReportTheSimulation) {
+  Monitor<diagnostic_msgs::DiagnosticArray> diagnostics(nh_, "/diagnostics");
+  ASSERT_NO_FATAL_FAILURE(freshScene(false));
+  const std::string name = nodeName().substr(1) + ": simulation";
+  const auto find = [&](const diagnostic_msgs::DiagnosticArray& array) -> const diagnostic_msgs::DiagnosticStatus* {
+    for (const auto& status : array.status) {
+      if (status.name == name) return &status;
+    }
+    return nullptr;
+  };
+  // The first window after a load may include the scene change; wait (diagnostics come at 1 Hz) for an
+  // OK one.
+  const auto ok = diagnostics.waitFor(
+      [&](const diagnostic_msgs::DiagnosticArray& a) {
+        const auto* s = find(a);
+        return s && s->level == diagnostic_msgs::DiagnosticStatus::OK;
+      },
+      20.0, diagnostics.count());
+  ASSERT_TRUE(ok) << "no OK status named '" << name << "' on /diagnostics";
+  const auto* status = find(*ok);
+  std::map<std::string, std::string> values;
+  for (const auto& kv : status->values) values[kv.key] = kv.value;
+  for (const char* key : {"step cost [ms]", "real-time factor", "max strain"}) {
+    ASSERT_TRUE(values.count(key)) << "missing key '" << key << "'";
+  }
+  const double cost_ms = std::stod(values["step cost [ms]"]);
+  const double real_time_factor = std::stod(values["real-time factor"]);
+  const double strain = std::stod(values["max strain"]);
+  EXPECT_TRUE(std::isfinite(cost_ms) && cost_ms > 0.0) << cost_ms;
+  EXPECT_TRUE(std::isfinite(real_time_factor) && real_time_factor > 0.0) << real_time_factor;
+  EXPECT_TRUE(std::isfinite(strain) && strain >= 0.0 && strain < 0.5) << strain;
+}
+
+// ---- 7. Ball scene: the sphere's tf frame moves (ball.test) ---------------------------------------
+
+TEST(Ball, SphereFrameMoves) {
+  tf2_ros::Buffer buffer;
+  tf2_ros::TransformListener listener(buffer);
+  const std::string frame = privateParam("frame_id", "world");
+  ASSERT_TRUE(waitUntil([&] { return buffer.canTransform(frame, "sphere_0", ros::Time(0)); }, 15.0))
+      << "no tf " << frame << " -> sphere_0";
+  // ball.yaml swings the sphere +-0.75 m along y with a 6 s period. Two instants symmetric about a turning
+  // point see it in the same place, so sample three, 0.5 s apart: some pair is then at least ~0.1 m apart.
+  const ros::Time t1 = buffer.lookupTransform(frame, "sphere_0", ros::Time(0)).header.stamp;
+  std::vector<Eigen::Vector3d> centers;
+  for (int k = 0; k < 3; ++k) {
+    const ros::Time t = t1 + ros::Duration(0.5 * k);
+    ASSERT_TRUE(waitUntil([&] { return buffer.canTransform(frame, "sphere_0", t); }, 15.0)) << "tf stopped before " << t;
+    const auto transform = buffer.lookupTransform(frame, "sphere_0", t);
+    EXPECT_EQ(transform.header.frame_id, frame);
+    EXPECT_EQ(transform.child_frame_id, "sphere_0");
+    centers.emplace_back(transform.transform.translation.x, transform.transform.translation.y,
+                         transform.transform.translation.z);
+  }
+  double largest_m = 0.0;
+  for (const auto& a : centers)
+    for (const auto& b : centers) largest_m = std::max(largest_m, (a - b).norm());
+  EXPECT_GT(largest_m, 0.02) << "sphere_0 did not move over 1 s from " << t1;
+}
+
+// ---- 8. Determinism under /use_sim_time (sim_time.test) -------------------------------------------
+
+TEST(SimTime, ResetAndRerunIsBitIdentical) {
+  ASSERT_TRUE(ros::Time::isSimTime()) << "sim_time.test must set /use_sim_time";
+  ros::NodeHandle nh;
+  Monitor<ClothState> states(nh, nodeTopic("state"));
+  ros::Publisher clock_pub = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  // The node publishes its state only to subscribers: wait until ours is connected.
+  ASSERT_TRUE(waitUntil([&] { return states.publisherCount() >= 1; }, 15.0)) << "node not publishing ~state";
+
+  const auto publishClock = [&](const ros::Time& time) {
+    rosgraph_msgs::Clock clock;
+    clock.clock = time;
+    clock_pub.publish(clock);
+  };
+  const ros::Time t0(100, 0);
+  const ros::Duration tick(0, 20000000);  // one frame, exactly 0.02 s
+  // The node anchors frame 0 on its first clock; repeat t0 until it answers (earlier ones may be lost).
+  std::uint64_t index = 0;
+  ClothState::ConstPtr first;
+  const auto deadline = deadlineIn(20.0);
+  while (!first && Clock::now() < deadline) {
+    publishClock(t0);
+    first = states.waitFor([&](const ClothState& s) { return s.header.stamp == t0; }, 0.2, 0, &index);
+  }
+  ASSERT_TRUE(first) << "no state stamped with the first clock";
+  ASSERT_EQ(first->frame, 0u);
+
+  // Advances the clock one frame at a time, waiting for each frame's state before the next tick.
+  constexpr std::uint64_t kFrames = 50;
+  ros::Time now = t0;
+  const auto run = [&](std::uint64_t* since) -> ClothState::ConstPtr {
+    ClothState::ConstPtr state;
+    for (std::uint64_t k = 1; k <= kFrames; ++k) {
+      now += tick;
+      publishClock(now);
+      state = states.waitFor([&](const ClothState& s) { return s.frame >= k; }, 10.0, *since, since);
+      if (!state) {
+        ADD_FAILURE() << "no state for frame " << k;
+        return nullptr;
+      }
+      EXPECT_EQ(state->frame, k) << "one tick advanced more than one frame";
+      ++*since;
+    }
+    return state;
+  };
+  std::uint64_t since = index + 1;
+  const auto first_run = run(&since);
+  ASSERT_TRUE(first_run);
+  EXPECT_FALSE(sameBits(*first, *first_run)) << "the cloth did not move: the comparison would prove nothing";
+
+  // reset re-anchors frame 0 at the current clock; keep advancing it from there.
+  std_srvs::Trigger trigger;
+  ASSERT_TRUE(callService(nodeTopic("reset"), trigger));
+  ASSERT_TRUE(trigger.response.success);
+  const auto reset = states.waitFor([](const ClothState& s) { return s.frame == 0; }, 10.0, since, &index);
+  ASSERT_TRUE(reset) << "no frame-0 state after reset";
+  EXPECT_TRUE(sameBits(*first, *reset));
+  since = index + 1;
+  const auto second_run = run(&since);
+  ASSERT_TRUE(second_run);
+  EXPECT_EQ(second_run->frame, first_run->frame);
+  EXPECT_EQ(second_run->sim_time, first_run->sim_time);
+  EXPECT_TRUE(sameBits(*first_run, *second_run));
+}
+
+// ---- 9. Bad parameters make the node exit (bad_params.test) ---------------------------------------
+
+namespace {
+
+/// cloth_node sits next to this test binary in devel/lib/cloth_sim.
+std::string nodeBinary() {
+  char path[4096];
+  const ssize_t length = readlink("/proc/self/exe", path, sizeof(path) - 1);
+  if (length <= 0) return "cloth_node";
+  std::string self(path, static_cast<std::size_t>(length));
+  return self.substr(0, self.rfind('/') + 1) + "cloth_node";
+}
+
+/// Starts the node with `arguments` (under its own name, so its private parameters are its own) and
+/// expects it to exit non-zero by itself, with every one of `expected` in its output.
+void expectRefused(const std::string& name, const std::string& arguments, const std::vector<std::string>& expected) {
+  constexpr int kTimeoutExit = 124;  // timeout(1): the node was still running
+  const ProcessResult result = runProcess("timeout 30 " + nodeBinary() + " __name:=" + name + " " + arguments);
+  EXPECT_NE(result.exit_code, 0) << result.output;
+  EXPECT_NE(result.exit_code, kTimeoutExit) << "the node ran on with " << arguments << ":\n" << result.output;
+  EXPECT_NE(result.exit_code, -1) << "the node did not exit normally:\n" << result.output;
+  for (const std::string& text : expected) {
+    EXPECT_NE(result.output.find(text), std::string::npos) << "'" << text << "' missing from:\n" << result.output;
+  }
+}
+
+}  // namespace
+
+TEST(BadParams, ZeroSubstepsNamesTheParameterAndItsRange) {
+  expectRefused("bad_substeps", "_substeps:=0", {"substeps = 0", "[1, 10000]"});
+}
+
+TEST(BadParams, UnknownIntegratorIsNamed) {
+  expectRefused("bad_integrator", "_integrator:=bogus", {"integrator", "bogus", "rk4"});
+}
+
+TEST(BadParams, UnknownSceneIsNamed) {
+  expectRefused("bad_scene", "_scene:=no_such_scene", {"no_such_scene", "hanging"});
+}
+
+TEST(BadParams, GoodParametersRun) {
+  // Control for the three above: with valid parameters the same command is still running at the timeout.
+  const ProcessResult result =
+      runProcess("timeout 3 " + nodeBinary() + " __name:=good_params _substeps:=20 _rows:=5 _cols:=5");
+  EXPECT_EQ(result.exit_code, 124) << result.output;
+}
+
 int main(int argc, char** argv) {
   testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
+  ros::init(argc, argv, "cloth_node_tests");
+  ros::NodeHandle nh;
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+  const int result = RUN_ALL_TESTS();
+  spinner.stop();
+  ros::shutdown();
+  return result;
 }

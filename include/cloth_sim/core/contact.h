@@ -57,7 +57,8 @@ struct ContactOptions {
 struct ContactStats {
   int band_collisions = 0;  ///< in the band and approaching: velocity response
   int penetrations = 0;     ///< found beyond the band and projected back
-  int swept_hits = 0;       ///< crossed a surface within the substep, caught by the sweep
+  int swept_hits = 0;       ///< started outside or in the band, crossed the surface within the substep,
+                            ///< caught by the sweep
   ContactStats& operator+=(const ContactStats& other);
 };
 

@@ -13,4 +13,10 @@ namespace cloth_sim::core {
 bool sampleTextureImage(const std::string& path, const Eigen::Matrix2Xd& uv, Eigen::Matrix3Xf* colors,
                         std::string* error);
 
+/// A scene's per-vertex colours: sampled from the image at `path`, or the built-in checker pattern
+/// (checkerColors) when `path` is empty. False with *error (and *colors untouched) if the image cannot
+/// be read.
+bool sceneVertexColors(const std::string& path, const Eigen::Matrix2Xd& uv, Eigen::Matrix3Xf* colors,
+                       std::string* error);
+
 }  // namespace cloth_sim::core

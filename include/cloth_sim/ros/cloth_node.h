@@ -28,6 +28,7 @@ namespace cloth_sim {
 struct Names {
   static constexpr const char* kMeshTopic = "mesh";
   static constexpr const char* kStateTopic = "state";
+  static constexpr const char* kCollidersTopic = "colliders";
   static constexpr const char* kWindTopic = "wind";
   static constexpr const char* kGraspTopic = "grasp";
   static constexpr const char* kResetService = "reset";
@@ -73,6 +74,8 @@ class ClothNode {
   bool onStep(cloth_sim::Step::Request& request, cloth_sim::Step::Response& response);
   bool onLoadScene(cloth_sim::LoadScene::Request& request, cloth_sim::LoadScene::Response& response);
   void onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t level);
+  /// The options in force as a reconfigure config.
+  void fillConfig(cloth_sim::ClothConfig* config) const;
   void pushConfig();
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
 
@@ -82,7 +85,7 @@ class ClothNode {
   std::string scenes_dir_;
   std::unique_ptr<core::Simulation> simulation_;
 
-  ros::Publisher mesh_pub_, state_pub_;
+  ros::Publisher mesh_pub_, state_pub_, colliders_pub_;
   ros::Subscriber wind_sub_, grasp_sub_;
   ros::ServiceServer reset_srv_, pause_srv_, step_srv_, load_scene_srv_;
   ros::Timer timer_;
@@ -91,6 +94,8 @@ class ClothNode {
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::unique_ptr<dynamic_reconfigure::Server<cloth_sim::ClothConfig>> reconfigure_;
   boost::recursive_mutex reconfigure_mutex_;
+  /// The wind the reconfigure sliders last showed: a reconfigure changes the wind only if they moved.
+  Eigen::Vector3d reconfigure_wind_ = Eigen::Vector3d::Zero();
   diagnostic_updater::Updater diagnostics_;
 
   bool paused_ = false;

@@ -9,6 +9,7 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <ros/time.h>
 #include <visualization_msgs/Marker.h>
+#include <visualization_msgs/MarkerArray.h>
 #include <xmlrpcpp/XmlRpcValue.h>
 #include <yaml-cpp/yaml.h>
 
@@ -25,6 +26,11 @@ visualization_msgs::Marker toMeshMarker(const core::Simulation& simulation, cons
 /// The whole state after a frame, with energies and the integrator in use.
 cloth_sim::ClothState toStateMessage(const core::Simulation& simulation, const std::string& frame_id,
                                      const ros::Time& stamp);
+
+/// The colliders as rviz shapes at the current time: spheres, boxes, and planes as 4 m square slabs
+/// centred on the point of the plane nearest the origin. Namespaces "spheres", "boxes", "planes".
+visualization_msgs::MarkerArray toColliderMarkers(const core::Simulation& simulation, const std::string& frame_id,
+                                                  const ros::Time& stamp);
 
 /// tf frames sphere_<i>, children of frame_id, at the spheres' current centres.
 std::vector<geometry_msgs::TransformStamped> toSphereTransforms(const core::Simulation& simulation,

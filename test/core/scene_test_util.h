@@ -1,0 +1,46 @@
+// Helpers shared by the core tests: loading the built-in scenes and measuring a cloth's shape.
+#pragma once
+
+#include "cloth_sim/core/simulation.h"
+#include "cloth_sim/io/scene_file.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+namespace cloth_sim::core {
+namespace test {
+
+inline std::string scenesDir() { return std::string(CLOTH_SIM_SOURCE_DIR) + "/config/scenes"; }
+
+/// The options of a built-in scene; fails the test (and returns the defaults) if it does not load.
+inline SceneOptions loadBuiltinScene(const std::string& name) {
+  SceneOptions options;
+  std::vector<std::string> errors;
+  const bool loaded = loadSceneFile(resolveScenePath(name, scenesDir()), &options, &errors);
+  EXPECT_TRUE(loaded) << name << ": " << (errors.empty() ? "" : errors.front());
+  return options;
+}
+
+/// Mean position of a set of particles, world frame, m.
+inline Eigen::Vector3d meanOf(const Eigen::Matrix3Xd& positions_m, const std::vector<int>& particles) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (int i : particles) sum += positions_m.col(i);
+  return sum / static_cast<double>(particles.size());
+}
+
+/// Indices of one grid row or column.
+inline std::vector<int> rowOf(const ClothGrid& grid, int row) {
+  std::vector<int> out;
+  for (int c = 0; c < grid.cols; ++c) out.push_back(grid.index(row, c));
+  return out;
+}
+inline std::vector<int> columnOf(const ClothGrid& grid, int col) {
+  std::vector<int> out;
+  for (int r = 0; r < grid.rows; ++r) out.push_back(grid.index(r, col));
+  return out;
+}
+
+}  // namespace test
+}  // namespace cloth_sim::core
