@@ -24,6 +24,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.ticker import MaxNLocator  # noqa: E402
 import numpy as np  # noqa: E402
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 
@@ -174,6 +175,8 @@ def main(argv=None):
     ax.set_ylim(fy0, fy1)
     ax.set_zlim(floor_z, zmax)
     ax.set_box_aspect((fx1 - fx0, fy1 - fy0, zmax - floor_z), zoom=0.9)  # room for the z label
+    for axis in (ax.xaxis, ax.yaxis, ax.zaxis):
+        axis.set_major_locator(MaxNLocator(5))  # fewer ticks: the default ones run into each other
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_zlabel("z (m)", labelpad=2)
