@@ -26,6 +26,9 @@ std_msgs::ColorRGBA toColor(const Eigen::Vector3f& rgb) {
 /// Drawn size of a plane collider (planes are infinite), m, and the thickness of the slab drawn for it.
 constexpr double kPlaneDrawnSide_m = 4.0;
 constexpr double kPlaneDrawnThickness_m = 0.005;
+/// Colliders are drawn this far inside their true surface, m: cloth resting on a surface drawn exactly
+/// there flickers through it in rviz (z-fighting).
+constexpr double kDrawnInset_m = 0.01;
 constexpr float kColliderAlpha = 0.6f;
 
 visualization_msgs::Marker colliderMarker(const std::string& frame_id, const ros::Time& stamp, const std::string& ns,
@@ -60,7 +63,7 @@ visualization_msgs::MarkerArray toColliderMarkers(const core::Simulation& simula
   const std::vector<Eigen::Vector3d> centers = simulation.sphereCenters();
   const Eigen::Quaterniond upright = Eigen::Quaterniond::Identity();
   for (std::size_t i = 0; i < centers.size(); ++i) {
-    const double diameter_m = 2.0 * colliders.spheres[i].radius_m;
+    const double diameter_m = 2.0 * (colliders.spheres[i].radius_m - kDrawnInset_m);
     markers.markers.push_back(colliderMarker(frame_id, stamp, "spheres", static_cast<int>(i),
                                              visualization_msgs::Marker::SPHERE, centers[i], upright,
                                              Eigen::Vector3d::Constant(diameter_m)));
@@ -69,12 +72,13 @@ visualization_msgs::MarkerArray toColliderMarkers(const core::Simulation& simula
     const core::BoxCollider& box = colliders.boxes[i];
     markers.markers.push_back(colliderMarker(frame_id, stamp, "boxes", static_cast<int>(i),
                                              visualization_msgs::Marker::CUBE, 0.5 * (box.min_m + box.max_m), upright,
-                                             box.max_m - box.min_m));
+                                             box.max_m - box.min_m - Eigen::Vector3d::Constant(2.0 * kDrawnInset_m)));
   }
   for (std::size_t i = 0; i < colliders.planes.size(); ++i) {
     const core::PlaneCollider& plane = colliders.planes[i];
-    // The slab's top face is the plane itself, so the cloth seems to rest on it, not sink into it.
-    const Eigen::Vector3d center_m = -plane.offset_m * plane.normal - 0.5 * kPlaneDrawnThickness_m * plane.normal;
+    // The slab's top face lies kDrawnInset_m under the plane, on the collider's side.
+    const Eigen::Vector3d center_m =
+        -plane.offset_m * plane.normal - (kDrawnInset_m + 0.5 * kPlaneDrawnThickness_m) * plane.normal;
     markers.markers.push_back(colliderMarker(
         frame_id, stamp, "planes", static_cast<int>(i), visualization_msgs::Marker::CUBE, center_m,
         Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), plane.normal),

@@ -27,7 +27,8 @@ visualization_msgs::Marker toMeshMarker(const core::Simulation& simulation, cons
 cloth_sim::ClothState toStateMessage(const core::Simulation& simulation, const std::string& frame_id,
                                      const ros::Time& stamp);
 
-/// The colliders as rviz shapes at the current time: spheres, boxes, and planes as 4 m square slabs
+/// The colliders as rviz shapes at the current time, drawn 1 cm inside their surfaces (no z-fighting with
+/// the cloth resting on them): spheres, boxes, and planes as 4 m square slabs
 /// centred on the point of the plane nearest the origin. Namespaces "spheres", "boxes", "planes".
 visualization_msgs::MarkerArray toColliderMarkers(const core::Simulation& simulation, const std::string& frame_id,
                                                   const ros::Time& stamp);
