@@ -5,6 +5,8 @@
 #   make test    build, run every gtest and rostest, print the failing cases and "N passed, N failed"
 #   make demo    build, run cloth.launch headless for DEMO_SECONDS s recording a bag, render the last mesh
 #                to a PNG and print the mesh publish rate (make demo SCENE=flag)
+#   make pictures  record every scene (or SCENES="flag ball") and render it in rviz under Xvfb into
+#                doc/images/rviz_<scene>.png, plus the demo's picture as doc/images/demo_hanging.png
 #   make clean   remove the private workspace and the demo outputs
 #
 # Cloned into an existing catkin workspace's src/ instead? Then catkin_make there as usual: nothing in
@@ -13,7 +15,7 @@
 SHELL := /bin/bash
 .SHELLFLAGS := -eu -o pipefail -c
 .DEFAULT_GOAL := build
-.PHONY: deps build test demo clean help
+.PHONY: deps build test demo pictures clean help
 
 # Debian 12's own ROS 1 packages (no /opt/ros); this is the one list of what the project needs.
 DEB_PACKAGES := build-essential cmake pkg-config \
@@ -22,7 +24,11 @@ DEB_PACKAGES := build-essential cmake pkg-config \
   python3-rostest python3-roslaunch libdynamic-reconfigure-config-init-mutex-dev \
   python3-dynamic-reconfigure libdiagnostic-updater-dev librosbag-dev python3-rosbag rosbash catkin \
   python3-catkin-pkg libeigen3-dev libstb-dev libyaml-cpp-dev python3-matplotlib python3-numpy xvfb \
-  libgtest-dev topic-tools python3-rospy rviz
+  libgtest-dev topic-tools python3-rospy rviz \
+  python3-std-msgs python3-geometry-msgs python3-visualization-msgs python3-diagnostic-msgs \
+  python3-rosgraph-msgs python3-std-srvs python3-tf2-msgs
+# Only `make pictures` needs these (rviz screenshots under Xvfb with ImageMagick's import).
+PICTURE_PACKAGES := imagemagick
 
 REPO := $(patsubst %/,%,$(dir $(abspath $(lastword $(MAKEFILE_LIST)))))
 # One workspace per clone (keyed by the clone's absolute path), outside the repo: rosrun searches a
@@ -97,6 +103,11 @@ test: build
 
 demo: build
 	@bash $(REPO)/scripts/demo.sh $(WS) $(SCENE) $(DEMO_SECONDS) $(DEMO_DIR)
+
+pictures: demo
+	@$(MAKE) --no-print-directory deps DEB_PACKAGES="$(PICTURE_PACKAGES)"
+	@cp $(DEMO_DIR)/$(SCENE).png $(REPO)/doc/images/demo_$(SCENE).png
+	@bash -c 'source $(WS)/devel/setup.bash && exec bash $(REPO)/scripts/make_pictures.sh $(REPO)/doc/images $(SCENES)'
 
 clean:
 	rm -rf $(WS) $(DEMO_DIR)

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Renders the end of a recorded bag in rviz (config/cloth.rviz) under Xvfb and saves a screenshot.
 #   scripts/rviz_screenshot.sh BAG OUT.png [SECONDS_OF_BAG_TO_PLAY]
-# Needs the package built and its devel/setup.bash sourced (make build does both for `make screenshots`).
+# Needs the package built and its devel/setup.bash sourced (`make pictures` does both).
 # Runs its own roscore on a free port and its own X display, so it does not disturb a running ROS system.
 set -euo pipefail
 bag=$1
