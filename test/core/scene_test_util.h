@@ -23,6 +23,16 @@ inline SceneOptions loadBuiltinScene(const std::string& name) {
   return options;
 }
 
+/// A rows x cols cloth floating free: the default springs, nothing pinned, no gravity.
+inline SceneOptions freeCloth(int rows, int cols) {
+  SceneOptions options;
+  options.rows = rows;
+  options.cols = cols;
+  options.pins.clear();
+  options.gravity_m_per_s2.setZero();
+  return options;
+}
+
 /// Mean position of a set of particles, world frame, m.
 inline Eigen::Vector3d meanOf(const Eigen::Matrix3Xd& positions_m, const std::vector<int>& particles) {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();

@@ -1,6 +1,7 @@
 // Paper §3 and §5: wind (both models), air damping, grasps and moving pins.
 #include "cloth_sim/core/forces.h"
 #include "cloth_sim/core/simulation.h"
+#include "scene_test_util.h"
 
 #include <gtest/gtest.h>
 
@@ -78,11 +79,7 @@ TEST(Wind, GustsScaleTheMeanWindSinusoidally) {
 
 TEST(AirDamping, AloneItMakesKineticEnergyDecayAtTheClosedFormRate) {
   // Free particles (no springs, no gravity) with F = -K v: KE(t) = KE(0) exp(-2 K t / m), monotone.
-  SceneOptions o;
-  o.rows = 4;
-  o.cols = 4;
-  o.pins.clear();
-  o.gravity_m_per_s2.setZero();
+  SceneOptions o = test::freeCloth(4, 4);
   for (SpringOptions& s : o.springs) s.enabled = false;
   o.air_damping_N_s_per_m = 0.02;  // 2 K / m = 1.28 /s: KE falls to 28 % in the 1 s run
   Simulation sim(o);
@@ -156,11 +153,7 @@ TEST(Grasp, GrabTheNearestParticleMoveItThenReleaseIt) {
 }
 
 TEST(Grasp, SeveralGraspsActAtOnceEachWithItsIdAndExtraForce) {
-  SceneOptions o;
-  o.rows = 8;
-  o.cols = 8;
-  o.pins.clear();
-  o.gravity_m_per_s2.setZero();
+  SceneOptions o = test::freeCloth(8, 8);
   Simulation sim(o);
   const ClothGrid& g = sim.grid();
   GraspRequest left;

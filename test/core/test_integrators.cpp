@@ -228,11 +228,7 @@ TEST(Determinism, SaveRunRestoreRerunGivesIdenticalBits) {
 TEST(Damping, SpringAndAirDampingDoNotDrainRigidTranslation) {
   // Spring damping acts on relative velocity only, so a rigidly translating cloth keeps its kinetic
   // energy exactly (air damping off: it is meant to act on absolute velocity).
-  SceneOptions o;
-  o.rows = 10;
-  o.cols = 10;
-  o.pins.clear();
-  o.gravity_m_per_s2.setZero();
+  SceneOptions o = test::freeCloth(10, 10);
   o.air_damping_N_s_per_m = 0.0;
   for (SpringOptions& s : o.springs) s.damping_N_s_per_m = 1.0;  // heavy: 8x the default structural damping
   for (IntegratorKind kind : allIntegratorKinds()) {

@@ -1,5 +1,6 @@
 // Foundation claims of the core: springs, gravity and pins behave as hand calculations say.
 #include "cloth_sim/core/simulation.h"
+#include "scene_test_util.h"
 
 #include <gtest/gtest.h>
 
@@ -12,12 +13,8 @@ constexpr double kPi = 3.141592653589793;
 
 /// Forces only from the given spring kinds: no gravity, damping, pins or colliders.
 SceneOptions springOnlyOptions(int rows, int cols) {
-  SceneOptions o;
-  o.rows = rows;
-  o.cols = cols;
-  o.gravity_m_per_s2.setZero();
+  SceneOptions o = test::freeCloth(rows, cols);
   o.air_damping_N_s_per_m = 0.0;
-  o.pins.clear();
   for (SpringOptions& s : o.springs) s.damping_N_s_per_m = 0.0;
   return o;
 }
