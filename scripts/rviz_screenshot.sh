@@ -11,6 +11,7 @@ export PATH=/usr/bin:$PATH
 export LIBGL_ALWAYS_SOFTWARE=1
 readonly RVIZ_START_S=10    # rviz with software GL takes a few seconds to show its first frame
 readonly SETTLE_S=2         # let rviz draw the last message before the screenshot
+readonly VIEW_CROP=620x628+364+62  # rviz's 3D view inside the 1000x720 screen (WxH+X+Y, pixels)
 
 display=:$((90 + RANDOM % 100))
 port=$((20000 + RANDOM % 20000))
@@ -31,5 +32,6 @@ duration=$(python3 -c "import rosbag,sys; b=rosbag.Bag(sys.argv[1]); print(b.get
 start=$(python3 -c "print(max(0.0, $duration - $tail_s))")
 rosbag play --clock --quiet -s "$start" "$bag" >"$workdir/play.log" 2>&1
 sleep "$SETTLE_S"
-import -window root -display "$display" "$out"
+# Keep only rviz's 3D view: the window is 1000x720 at the screen's corner with its docks on the left.
+import -window root -display "$display" -crop "$VIEW_CROP" +repage "$out"
 echo "$out"

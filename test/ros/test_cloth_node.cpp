@@ -183,7 +183,9 @@ class NodeTest : public ::testing::Test {
     ASSERT_EQ(first->rows, kHangingRows);
     ASSERT_EQ(first->cols, kHangingCols);
     if (frame0) *frame0 = first;
-    if (!paused) ASSERT_NO_FATAL_FAILURE(setPaused(false));
+    if (!paused) {
+      ASSERT_NO_FATAL_FAILURE(setPaused(false));
+    }
   }
 
   void setPaused(bool paused) {
