@@ -1,5 +1,7 @@
 #include "cloth_sim/core/contact.h"
 
+#include "cloth_sim/core/constants.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -8,7 +10,6 @@ namespace cloth_sim::core {
 
 namespace {
 
-constexpr double kTwoPi = 6.283185307179586;
 /// Below this a direction is undefined, m; a particle at a sphere's centre is pushed out along +z.
 constexpr double kTinyLength_m = 1e-12;
 

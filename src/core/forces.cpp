@@ -1,5 +1,7 @@
 #include "cloth_sim/core/forces.h"
 
+#include "cloth_sim/core/constants.h"
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -11,7 +13,6 @@ namespace {
 
 /// Below this a spring or triangle has no usable direction, m (or m^2 for doubled areas).
 constexpr double kDegenerateLength_m = 1e-6;
-constexpr double kTwoPi = 6.283185307179586;
 constexpr double kOneThird = 1.0 / 3.0;
 
 }  // namespace
@@ -29,9 +30,9 @@ void accumulateSpringForces(const SpringSet& springs, const SpringOptions& optio
     const double length_m = d.norm();
     if (length_m < kDegenerateLength_m) continue;
     const Eigen::Vector3d direction = d / length_m;
-    const double closing_speed = (velocities_m_per_s.col(j) - velocities_m_per_s.col(i)).dot(direction);
+    const double separation_rate = (velocities_m_per_s.col(j) - velocities_m_per_s.col(i)).dot(direction);
     const Eigen::Vector3d force_on_i =
-        (ks * (length_m - springs.rest_length_m[s]) + kd * closing_speed) * direction;
+        (ks * (length_m - springs.rest_length_m[s]) + kd * separation_rate) * direction;
     forces_N.col(i) += force_on_i;
     forces_N.col(j) -= force_on_i;
   }

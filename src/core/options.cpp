@@ -10,8 +10,6 @@ namespace {
 
 /// How far from unit length an axis or normal may be, and how far from orthogonal two axes may be.
 constexpr double kUnitTolerance = 1e-6;
-/// Colliders and cloth must sit within this distance of the origin, m.
-constexpr double kMaxCoordinate_m = 1000.0;
 
 class Problems {
  public:
@@ -65,14 +63,14 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   problems.inRange("cols", o.cols, L::kMinGridSide, L::kMaxGridSide);
   problems.positive("width", o.width_m, L::kMaxClothSide_m);
   problems.positive("height", o.height_m, L::kMaxClothSide_m);
-  problems.finiteVector("origin", o.origin_m, kMaxCoordinate_m);
+  problems.finiteVector("origin", o.origin_m, L::kMaxCoordinate_m);
   problems.unitVector("u_axis", o.u_axis);
   problems.unitVector("v_axis", o.v_axis);
   if (o.u_axis.allFinite() && o.v_axis.allFinite() && std::abs(o.u_axis.dot(o.v_axis)) > kUnitTolerance) {
     problems.fail("u_axis and v_axis: must be orthogonal");
   }
   problems.positive("mass", o.mass_kg, L::kMaxMass_kg);
-  problems.finiteVector("gravity", o.gravity_m_per_s2, 1000.0);
+  problems.finiteVector("gravity", o.gravity_m_per_s2, L::kMaxAcceleration_m_per_s2);
   for (int k = 0; k < kSpringKindCount; ++k) {
     const std::string kind = springKindName(static_cast<SpringKind>(k));
     problems.inRange(kind + "_stiffness", o.springs[k].stiffness_N_per_m, 0.0, L::kMaxStiffnessN_per_m);
@@ -80,40 +78,40 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   }
   problems.inRange("air_damping", o.air_damping_N_s_per_m, 0.0, L::kMaxDampingN_s_per_m);
   problems.finiteVector("wind", o.wind.velocity_m_per_s, L::kMaxWindSpeed_m_per_s);
-  problems.inRange("wind_coefficient", o.wind.paper_coefficient_N_s_per_m, 0.0, 10.0);
-  problems.inRange("air_density", o.wind.air_density_kg_per_m3, 0.0, 10.0);
-  problems.inRange("drag_coefficient", o.wind.drag_coefficient, 0.0, 10.0);
-  problems.inRange("wind_gust_amplitude", o.wind.gust_amplitude, 0.0, 10.0);
-  problems.positive("wind_gust_period", o.wind.gust_period_s, 1e4);
+  problems.inRange("wind_coefficient", o.wind.paper_coefficient_N_s_per_m, 0.0, L::kMaxWindCoefficient);
+  problems.inRange("air_density", o.wind.air_density_kg_per_m3, 0.0, L::kMaxAirDensity_kg_per_m3);
+  problems.inRange("drag_coefficient", o.wind.drag_coefficient, 0.0, L::kMaxWindCoefficient);
+  problems.inRange("wind_gust_amplitude", o.wind.gust_amplitude, 0.0, L::kMaxGustAmplitude);
+  problems.positive("wind_gust_period", o.wind.gust_period_s, L::kMaxPeriod_s);
 
   std::string pin_error;
   resolvePins(o.pins, std::max(o.rows, 2), std::max(o.cols, 2), &pin_error);
   if (!pin_error.empty()) problems.fail(pin_error);
-  problems.finiteVector("pin_motion_amplitude", o.pin_motion_amplitude_m, kMaxCoordinate_m);
-  problems.positive("pin_motion_period", o.pin_motion_period_s, 1e4);
+  problems.finiteVector("pin_motion_amplitude", o.pin_motion_amplitude_m, L::kMaxCoordinate_m);
+  problems.positive("pin_motion_period", o.pin_motion_period_s, L::kMaxPeriod_s);
 
   for (std::size_t i = 0; i < o.colliders.planes.size(); ++i) {
     problems.unitVector(indexed("planes", i, "normal"), o.colliders.planes[i].normal);
-    problems.inRange(indexed("planes", i, "offset"), o.colliders.planes[i].offset_m, -kMaxCoordinate_m,
-                     kMaxCoordinate_m);
+    problems.inRange(indexed("planes", i, "offset"), o.colliders.planes[i].offset_m, -L::kMaxCoordinate_m,
+                     L::kMaxCoordinate_m);
   }
   for (std::size_t i = 0; i < o.colliders.spheres.size(); ++i) {
     const SphereCollider& s = o.colliders.spheres[i];
-    problems.finiteVector(indexed("spheres", i, "center"), s.center_m, kMaxCoordinate_m);
+    problems.finiteVector(indexed("spheres", i, "center"), s.center_m, L::kMaxCoordinate_m);
     problems.positive(indexed("spheres", i, "radius"), s.radius_m, L::kMaxClothSide_m);
-    problems.finiteVector(indexed("spheres", i, "velocity"), s.velocity_m_per_s, L::kMaxWindSpeed_m_per_s);
-    problems.finiteVector(indexed("spheres", i, "amplitude"), s.oscillation_amplitude_m, kMaxCoordinate_m);
-    problems.positive(indexed("spheres", i, "period"), s.oscillation_period_s, 1e4);
+    problems.finiteVector(indexed("spheres", i, "velocity"), s.velocity_m_per_s, L::kMaxColliderSpeed_m_per_s);
+    problems.finiteVector(indexed("spheres", i, "amplitude"), s.oscillation_amplitude_m, L::kMaxCoordinate_m);
+    problems.positive(indexed("spheres", i, "period"), s.oscillation_period_s, L::kMaxPeriod_s);
   }
   for (std::size_t i = 0; i < o.colliders.boxes.size(); ++i) {
     const BoxCollider& b = o.colliders.boxes[i];
-    problems.finiteVector(indexed("boxes", i, "min"), b.min_m, kMaxCoordinate_m);
-    problems.finiteVector(indexed("boxes", i, "max"), b.max_m, kMaxCoordinate_m);
+    problems.finiteVector(indexed("boxes", i, "min"), b.min_m, L::kMaxCoordinate_m);
+    problems.finiteVector(indexed("boxes", i, "max"), b.max_m, L::kMaxCoordinate_m);
     if ((b.max_m - b.min_m).minCoeff() <= 0.0) problems.fail(indexed("boxes", i, "max") + ": must exceed min on every axis");
   }
-  problems.inRange("contact_depth", o.contact.depth_m, 0.0, 1.0);
+  problems.inRange("contact_depth", o.contact.depth_m, 0.0, L::kMaxContactDepth_m);
   problems.inRange("restitution", o.contact.restitution, 0.0, 1.0);
-  problems.inRange("friction", o.contact.friction, 0.0, 10.0);
+  problems.inRange("friction", o.contact.friction, 0.0, L::kMaxFriction);
   problems.inRange("grasp_stiffness", o.grasp_stiffness_N_per_m, 0.0, L::kMaxStiffnessN_per_m);
   problems.inRange("grasp_damping", o.grasp_damping_N_s_per_m, 0.0, L::kMaxDampingN_s_per_m);
   problems.inRange("substeps", o.substeps, 1, L::kMaxSubsteps);

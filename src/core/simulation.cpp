@@ -1,5 +1,8 @@
 #include "cloth_sim/core/simulation.h"
 
+#include "cloth_sim/core/constants.h"
+
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -9,7 +12,6 @@ namespace cloth_sim::core {
 
 namespace {
 
-constexpr double kTwoPi = 6.283185307179586;
 /// Squares of the built-in checker per side of the cloth.
 constexpr int kCheckerSquares = 8;
 
@@ -70,6 +72,7 @@ void Simulation::reset() {
   inverse_mass_per_kg_ = mass_kg_.cwiseInverse();
   for (int i : pinned_) inverse_mass_per_kg_[i] = 0.0;
   grasps_.clear();
+  pin_anchors_m_ = grid_.rest_positions_m;
   state_.positions_m = grid_.rest_positions_m;
   state_.velocities_m_per_s.setZero(3, count);
   state_.time_s = 0.0;
@@ -87,24 +90,27 @@ bool Simulation::restoreState(const ClothState& state, std::string* error) {
   return true;
 }
 
+Eigen::Vector3d Simulation::pinOffset(double time_s) const {
+  return options_.pin_motion_amplitude_m * std::sin(kTwoPi * time_s / options_.pin_motion_period_s);
+}
+
 void Simulation::enforcePins(double time_s, ClothState& state) const {
-  const double phase = kTwoPi * time_s / options_.pin_motion_period_s;
-  const Eigen::Vector3d offset_m = options_.pin_motion_amplitude_m * std::sin(phase);
+  const double angular_rate = kTwoPi / options_.pin_motion_period_s;
+  const Eigen::Vector3d offset_m = pinOffset(time_s);
   const Eigen::Vector3d velocity_m_per_s =
-      options_.pin_motion_amplitude_m * (kTwoPi / options_.pin_motion_period_s) * std::cos(phase);
+      options_.pin_motion_amplitude_m * angular_rate * std::cos(angular_rate * time_s);
   for (int i : pinned_) {
-    if (inverse_mass_per_kg_[i] != 0.0) continue;  // unpinned by a grasp
-    state.positions_m.col(i) = grid_.rest_positions_m.col(i) + offset_m;
+    if (inverse_mass_per_kg_[i] != 0.0) continue;  // off its hook while a grasp holds it
+    state.positions_m.col(i) = pin_anchors_m_.col(i) + offset_m;
     state.velocities_m_per_s.col(i) = velocity_m_per_s;
   }
 }
 
-FrameReport Simulation::advanceFrame() {
-  FrameReport report;
-  frame_start_ = state_;
-  const double step_s = options_.substep_s();
+ContactStats Simulation::integrateFrame(int substeps) {
+  ContactStats contacts;
+  const double step_s = options_.frameDuration_s() / substeps;
   const double frame_start_s = state_.time_s;
-  for (int k = 0; k < options_.substeps; ++k) {
+  for (int k = 0; k < substeps; ++k) {
     const double t0_s = state_.time_s;
     if (!options_.colliders.empty()) substep_start_positions_m_ = state_.positions_m;
     integrator_->step(*dynamics_, step_s, state_);
@@ -112,28 +118,44 @@ FrameReport Simulation::advanceFrame() {
     state_.time_s = frame_start_s + (k + 1) * step_s;
     enforcePins(state_.time_s, state_);
     if (!options_.colliders.empty()) {
-      report.contacts += resolveContacts(options_.colliders, options_.contact, t0_s, state_.time_s,
-                                         inverse_mass_per_kg_, substep_start_positions_m_, state_.positions_m,
-                                         state_.velocities_m_per_s);
+      contacts += resolveContacts(options_.colliders, options_.contact, t0_s, state_.time_s, inverse_mass_per_kg_,
+                                  substep_start_positions_m_, state_.positions_m, state_.velocities_m_per_s);
     }
   }
-  if (!isFiniteAndBounded(state_, kDivergenceBound_m)) {
-    state_ = frame_start_;
+  return contacts;
+}
+
+FrameReport Simulation::advanceFrame() {
+  FrameReport report;
+  frame_start_ = state_;
+  // The guard: a frame that diverges is recomputed from its start with twice the substeps, up to
+  // kGuardDoublings times; only if that fails too is it rolled back. A too-stiff grasp or slider then
+  // costs time instead of freezing the cloth.
+  bool accepted = false;
+  for (int doubling = 0; doubling <= kGuardDoublings && !accepted; ++doubling) {
+    report.substeps_used = options_.substeps << doubling;
+    report.contacts = integrateFrame(report.substeps_used);
+    accepted = isFiniteAndBounded(state_, kDivergenceBound_m);
+    if (!accepted) state_ = frame_start_;
+  }
+  std::ostringstream reason;
+  if (!accepted) {
     report.stable = false;
-    std::ostringstream reason;
-    reason << "diverged in frame " << state_.frame + 1 << " (" << integratorName(options_.integrator) << ", "
-           << options_.substeps << " substeps of " << step_s << " s): rolled back to the previous frame";
+    reason << "diverged in frame " << state_.frame + 1 << " (" << integratorName(options_.integrator) << ") even with "
+           << report.substeps_used << " substeps: rolled back to the previous frame";
     report.reason = reason.str();
     report.max_strain = maxStructuralStrain();
     return report;
   }
   ++state_.frame;
   report.max_strain = maxStructuralStrain();
-  if (report.max_strain > kStrainWarning) {
-    std::ostringstream reason;
+  if (report.substeps_used != options_.substeps) {
+    reason << "frame " << state_.frame << " diverged with " << options_.substeps << " substeps and was recomputed with "
+           << report.substeps_used << ": raise substeps or lower the stiffness";
+  } else if (report.max_strain > kStrainWarning) {
     reason << "over-stretched: structural strain " << report.max_strain << " > " << kStrainWarning;
-    report.reason = reason.str();
   }
+  report.reason = reason.str();
   return report;
 }
 
@@ -186,6 +208,10 @@ bool Simulation::grab(const GraspRequest& request, std::string* error) {
     grasp.extra_force_N = request.extra_force_N;
     return true;
   }
+  if (grasps_.size() >= kMaxGrasps) {
+    *error = "already " + std::to_string(kMaxGrasps) + " grasps held: release one first";
+    return false;
+  }
   Grasp grasp;
   grasp.id = request.id;
   grasp.particle = request.particle >= 0 ? request.particle : nearestParticle(request.target_m);
@@ -193,19 +219,26 @@ bool Simulation::grab(const GraspRequest& request, std::string* error) {
   grasp.stiffness_N_per_m = stiffness;
   grasp.damping_N_s_per_m = options_.grasp_damping_N_s_per_m;
   grasp.extra_force_N = request.extra_force_N;
-  // A held pin comes off its hook (paper: pins move only when grasped or driven); reset() re-pins it.
+  // A held pin comes off its hook (paper: pins move only when grasped or driven); release() re-hooks it.
   inverse_mass_per_kg_[grasp.particle] = 1.0 / mass_kg_[grasp.particle];
   grasps_.push_back(grasp);
   return true;
 }
 
 bool Simulation::release(std::uint32_t id) {
-  for (auto it = grasps_.begin(); it != grasps_.end(); ++it) {
-    if (it->id != id) continue;
-    grasps_.erase(it);
-    return true;
+  const auto held = std::find_if(grasps_.begin(), grasps_.end(), [id](const Grasp& g) { return g.id == id; });
+  if (held == grasps_.end()) return false;
+  const int particle = held->particle;
+  grasps_.erase(held);
+  const bool still_held =
+      std::any_of(grasps_.begin(), grasps_.end(), [particle](const Grasp& g) { return g.particle == particle; });
+  if (!still_held && std::binary_search(pinned_.begin(), pinned_.end(), particle)) {
+    // Hang it on a hook where the hand let go: the pin's motion continues from there.
+    pin_anchors_m_.col(particle) = state_.positions_m.col(particle) - pinOffset(state_.time_s);
+    inverse_mass_per_kg_[particle] = 0.0;
+    enforcePins(state_.time_s, state_);
   }
-  return false;
+  return true;
 }
 
 int Simulation::nearestParticle(const Eigen::Vector3d& point_m) const {

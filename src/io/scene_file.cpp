@@ -61,7 +61,8 @@ std::vector<T> readList(const YAML::Node& node, const std::vector<std::string>& 
     if (!entry.IsMap()) throw WrongType{"a list of maps"};
     T item;
     for (const auto& field : entry) {
-      const std::string name = field.first.as<std::string>();
+      if (!field.first.IsScalar()) throw WrongType{"maps whose keys are names"};
+      const std::string name = field.first.Scalar();
       if (std::find(fields.begin(), fields.end(), name) == fields.end()) {
         std::string known;
         for (const std::string& f : fields) known += (known.empty() ? "" : ", ") + f;
@@ -186,7 +187,11 @@ bool applySceneYaml(const YAML::Node& map, const std::string& source, SceneOptio
     return false;
   }
   for (const auto& entry : map) {
-    const std::string key = entry.first.as<std::string>();
+    if (!entry.first.IsScalar()) {
+      errors->push_back(source + ": a key is " + describe(entry.first) + ": keys must be names");
+      continue;
+    }
+    const std::string key = entry.first.Scalar();
     const auto setter = setters().find(key);
     if (setter == setters().end()) {
       errors->push_back(source + ": unknown key '" + key + "'");

@@ -191,6 +191,54 @@ TEST(Grasp, InvalidRequestsAreRefusedAndChangeNothing) {
   EXPECT_TRUE(sim.grasps().empty());
 }
 
+TEST(Grasp, AReleasedPinIsHookedAgainWhereItWasLetGo) {
+  // Paper: pins move only when grasped or driven. Carry the top-left corner 20 cm towards +y, let go.
+  SceneOptions o;
+  o.rows = 8;
+  o.cols = 8;
+  Simulation sim(o);
+  const int corner = sim.grid().index(0, 0);
+  GraspRequest hand;
+  hand.id = 7;
+  hand.particle = corner;
+  hand.stiffness_N_per_m = 200.0;
+  hand.target_m = sim.state().positions_m.col(corner) + Eigen::Vector3d(0.0, 0.2, 0.0);
+  std::string error;
+  ASSERT_TRUE(sim.grab(hand, &error)) << error;
+  for (int frame = 0; frame < 100; ++frame) sim.advanceFrame();
+  EXPECT_GT(sim.state().positions_m(1, corner), 0.15) << "the hand did not carry the pin";
+  ASSERT_TRUE(sim.release(hand.id));
+  const Eigen::Vector3d let_go = sim.state().positions_m.col(corner);
+  for (int frame = 0; frame < 100; ++frame) {
+    sim.advanceFrame();
+    EXPECT_EQ(sim.state().positions_m.col(corner), let_go) << "frame " << frame;
+    EXPECT_TRUE(sim.state().velocities_m_per_s.col(corner).isZero());
+  }
+  sim.reset();
+  EXPECT_EQ(sim.state().positions_m.col(corner), sim.grid().rest_positions_m.col(corner)) << "reset re-hooks at rest";
+}
+
+TEST(Grasp, AtMostKMaxGraspsAreHeldAtOnce) {
+  Simulation sim(SceneOptions{});
+  std::string error;
+  GraspRequest request;
+  for (std::uint32_t id = 0; id < Simulation::kMaxGrasps; ++id) {
+    request.id = id;
+    request.particle = static_cast<int>(id);
+    ASSERT_TRUE(sim.grab(request, &error)) << error;
+  }
+  request.id = 1000;
+  EXPECT_FALSE(sim.grab(request, &error));
+  EXPECT_NE(error.find("release one"), std::string::npos) << error;
+  request.id = 3;  // an existing id still drags
+  request.target_m = Eigen::Vector3d(0, 1, 1);
+  EXPECT_TRUE(sim.grab(request, &error)) << error;
+  ASSERT_TRUE(sim.release(3));
+  request.id = 1000;
+  EXPECT_TRUE(sim.grab(request, &error)) << error;
+  EXPECT_EQ(sim.grasps().size(), Simulation::kMaxGrasps);
+}
+
 TEST(Pins, MovingPinsFollowTheirSinusoidAndFixedPinsStayPut) {
   SceneOptions o;
   o.rows = 6;

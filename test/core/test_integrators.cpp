@@ -225,7 +225,7 @@ TEST(Determinism, SaveRunRestoreRerunGivesIdenticalBits) {
   expectBitwiseEqual(first, sim.state());
 }
 
-TEST(Damping, SpringAndAirDampingDoNotDrainRigidTranslation) {
+TEST(Damping, SpringDampingDoesNotDrainRigidTranslation) {
   // Spring damping acts on relative velocity only, so a rigidly translating cloth keeps its kinetic
   // energy exactly (air damping off: it is meant to act on absolute velocity).
   SceneOptions o = test::freeCloth(10, 10);
@@ -242,6 +242,54 @@ TEST(Damping, SpringAndAirDampingDoNotDrainRigidTranslation) {
     for (int frame = 0; frame < 100; ++frame) sim.advanceFrame();
     EXPECT_NEAR(sim.energies().kinetic_J, e0, 1e-12 * e0) << integratorName(kind);
   }
+}
+
+TEST(StabilityGuard, AFrameThatDivergesIsRecomputedWithMoreSubstepsNotFrozen) {
+  // A stiff hand on a light corner particle: stable only with more substeps than the scene has.
+  SceneOptions o;
+  o.substeps = 10;
+  Simulation sim(o);
+  GraspRequest hand;
+  hand.particle = sim.grid().index(o.rows - 1, 0);
+  hand.target_m = sim.state().positions_m.col(hand.particle) + Eigen::Vector3d(0.0, 0.3, 0.0);
+  hand.stiffness_N_per_m = 2000.0;
+  std::string error;
+  ASSERT_TRUE(sim.grab(hand, &error)) << error;
+  int recomputed = 0;
+  for (int frame = 0; frame < 50; ++frame) {
+    const FrameReport report = sim.advanceFrame();
+    ASSERT_TRUE(report.stable) << report.reason;
+    ASSERT_TRUE(isFiniteAndBounded(sim.state(), Simulation::kDivergenceBound_m));
+    if (report.substeps_used > o.substeps) {
+      ++recomputed;
+      EXPECT_NE(report.reason.find("recomputed"), std::string::npos) << report.reason;
+    }
+  }
+  EXPECT_GT(recomputed, 0) << "the grasp was not stiff enough to need the guard: the test proves nothing";
+  EXPECT_EQ(sim.state().frame, 50u) << "every frame advanced";
+}
+
+TEST(StabilityGuard, AHopelessFrameIsRolledBackAndTheStateStaysFinite) {
+  // The stiffest springs the options accept, one substep: even 8 substeps cannot hold it. Instability
+  // grows over a few frames; the first frame that still diverges with the guard must be rolled back.
+  SceneOptions o;
+  o.substeps = 1;
+  o.springs[static_cast<int>(SpringKind::kStructural)].stiffness_N_per_m = OptionLimits::kMaxStiffnessN_per_m;
+  Simulation sim(o);
+  constexpr int kFrames = 200;
+  for (int frame = 0; frame < kFrames; ++frame) {
+    const ClothState before = sim.state();
+    const FrameReport report = sim.advanceFrame();
+    ASSERT_TRUE(isFiniteAndBounded(sim.state(), Simulation::kDivergenceBound_m)) << "frame " << frame;
+    if (report.stable) continue;
+    EXPECT_EQ(report.substeps_used, o.substeps << Simulation::kGuardDoublings);
+    EXPECT_NE(report.reason.find("rolled back"), std::string::npos) << report.reason;
+    EXPECT_TRUE(sim.state().positions_m == before.positions_m) << "not rolled back";
+    EXPECT_TRUE(sim.state().velocities_m_per_s == before.velocities_m_per_s) << "not rolled back";
+    EXPECT_EQ(sim.state().frame, before.frame);
+    return;
+  }
+  FAIL() << "no frame diverged in " << kFrames << " frames: the test proves nothing";
 }
 
 }  // namespace

@@ -242,6 +242,11 @@ TEST(SceneFile, OutOfRangeValueNamesTheFieldAndTheRange) {
   expectErrorNames("pins: [middle]\n", {"pins", "middle"});
 }
 
+TEST(SceneFile, AKeyThatIsNotANameIsAnErrorNotAnException) {
+  expectErrorNames("? [a, b]\n: 1\n", {"keys must be names"});
+  expectErrorNames("planes:\n  - {? [x] : 1}\n", {"planes", "keys are names"});
+}
+
 TEST(SceneFile, NotYamlOrNotAMapOrMissingIsRejected) {
   expectErrorNames("rows: [1, 2\n", {"not valid YAML"});
   expectErrorNames("- rows\n", {"expected a map"});

@@ -25,6 +25,15 @@ struct OptionLimits {
   static constexpr double kMaxWindSpeed_m_per_s = 100.0;
   static constexpr double kMaxClothSide_m = 100.0;
   static constexpr double kMaxMass_kg = 1e4;
+  static constexpr double kMaxCoordinate_m = 1000.0;        ///< cloth, colliders and pin motion
+  static constexpr double kMaxAcceleration_m_per_s2 = 1000.0;  ///< gravity
+  static constexpr double kMaxColliderSpeed_m_per_s = 100.0;
+  static constexpr double kMaxPeriod_s = 1e4;               ///< gusts, pin motion, sphere swings
+  static constexpr double kMaxWindCoefficient = 10.0;       ///< paper coefficient, N s/m, and drag C_d
+  static constexpr double kMaxAirDensity_kg_per_m3 = 10.0;
+  static constexpr double kMaxGustAmplitude = 10.0;          ///< relative to the mean wind
+  static constexpr double kMaxContactDepth_m = 1.0;
+  static constexpr double kMaxFriction = 10.0;
 };
 
 struct SceneOptions {

@@ -35,8 +35,10 @@ struct EnergyReport {
 
 /// The outcome of one frame.
 struct FrameReport {
-  bool stable = true;     ///< false: the frame diverged and was rolled back (the state is the previous one)
-  std::string reason;     ///< why it is not OK: empty, a warning, or the divergence
+  bool stable = true;     ///< false: the frame diverged even with the guard's extra substeps and was rolled
+                          ///< back (the state is the previous one)
+  std::string reason;     ///< why it is not OK: empty, a warning (recomputed, over-stretched), or the divergence
+  int substeps_used = 0;  ///< substeps of the accepted (or last tried) computation of the frame
   ContactStats contacts;  ///< summed over the frame's substeps
   double max_strain = 0.0;  ///< largest structural stretch (|d| - L) / L after the frame
 };
@@ -50,6 +52,10 @@ class Simulation {
   /// A grasp target further than this from the origin (m) is refused.
   static constexpr double kMaxGraspReach_m = 1000.0;
   static constexpr double kMaxGraspForce_N = 1e4;
+  /// Most grasps held at once; each costs work in every force evaluation.
+  static constexpr std::size_t kMaxGrasps = 16;
+  /// A diverged frame is recomputed with 2x, 4x, ... 2^kGuardDoublings x the substeps before it is rolled back.
+  static constexpr int kGuardDoublings = 3;
 
   /// options must have passed validateSceneOptions; throws std::invalid_argument otherwise.
   explicit Simulation(const SceneOptions& options);
@@ -63,8 +69,9 @@ class Simulation {
   const std::vector<int>& pinnedParticles() const { return pinned_; }
   const Eigen::VectorXd& massPerParticle_kg() const { return mass_kg_; }
 
-  /// Advances one frame (options().frameDuration_s()) in options().substeps substeps. If the state
-  /// diverges it is restored to the frame's start and the report says so.
+  /// Advances one frame (options().frameDuration_s()) in options().substeps substeps. A frame that
+  /// diverges is recomputed with more substeps (see kGuardDoublings); if it still diverges the state is
+  /// restored to the frame's start. The report says which happened.
   FrameReport advanceFrame();
 
   /// Back to the scene's initial state: grasps released, pins re-hooked. Tuning (retune, wind) is kept.
@@ -80,9 +87,10 @@ class Simulation {
   void setWindVelocity(const Eigen::Vector3d& wind_m_per_s);
 
   /// Starts a grasp, or moves the target of an existing one with the same id (the held particle stays).
-  /// False with *error (and nothing changed) for an out-of-range particle or non-finite/absurd values.
+  /// A grasped pin comes off its hook. False with *error (and nothing changed) for an out-of-range
+  /// particle, non-finite/absurd values, or more than kMaxGrasps grasps.
   bool grab(const GraspRequest& request, std::string* error);
-  /// Lets go; false if no grasp has that id.
+  /// Lets go; a pin no other grasp holds is hooked again where it was let go. False if no grasp has that id.
   bool release(std::uint32_t id);
   const std::vector<Grasp>& grasps() const { return grasps_; }
 
@@ -100,6 +108,10 @@ class Simulation {
  private:
   class ClothDynamics;
 
+  /// Runs one frame in the given number of substeps from the current state.
+  ContactStats integrateFrame(int substeps);
+  /// Where the pins' motion has taken them at time_s, relative to their anchors, m.
+  Eigen::Vector3d pinOffset(double time_s) const;
   void enforcePins(double time_s, ClothState& state) const;
   int nearestParticle(const Eigen::Vector3d& point_m) const;
 
@@ -107,7 +119,9 @@ class Simulation {
   ClothGrid grid_;
   std::vector<int> pinned_;
   Eigen::VectorXd mass_kg_;
-  Eigen::VectorXd inverse_mass_per_kg_;  ///< 0 for pinned particles
+  Eigen::VectorXd inverse_mass_per_kg_;  ///< 0 for pinned particles (on their hook)
+  Eigen::Matrix3Xd pin_anchors_m_;       ///< where each pin hangs before pin motion; the rest position until
+                                         ///< a released grasp re-hooks it elsewhere
   ClothState state_;
   ClothState frame_start_;               ///< rollback point, scratch
   Eigen::Matrix3Xd substep_start_positions_m_;  ///< scratch for the contact sweep
