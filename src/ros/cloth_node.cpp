@@ -18,8 +18,7 @@ namespace {
 /// Private parameters that belong to the node rather than to the scene.
 const std::set<std::string>& nodeOnlyParameters() {
   static const std::set<std::string> names{Names::kSceneParam, Names::kFrameIdParam,
-                                           // dynamic_reconfigure mirrors its wind sliders here
-                                           "wind_x", "wind_y", "wind_z"};
+                                           Names::kTuningNamespace};
   return names;
 }
 
@@ -63,7 +62,10 @@ bool ClothNode::start(std::string* error) {
   step_srv_ = pnh_.advertiseService(Names::kStepService, &ClothNode::onStep, this);
   load_scene_srv_ = pnh_.advertiseService(Names::kLoadSceneService, &ClothNode::onLoadScene, this);
 
-  reconfigure_ = std::make_unique<dynamic_reconfigure::Server<cloth_sim::ClothConfig>>(reconfigure_mutex_, pnh_);
+  // In its own namespace: dynamic_reconfigure leaves its values on the parameter server, where the next
+  // start-up would otherwise read them as overrides of the next scene.
+  reconfigure_ = std::make_unique<dynamic_reconfigure::Server<cloth_sim::ClothConfig>>(
+      reconfigure_mutex_, ros::NodeHandle(pnh_, Names::kTuningNamespace));
   pushConfig();  // before the callback, so its first call carries the scene's values, not the .cfg defaults
   reconfigure_->setCallback([this](cloth_sim::ClothConfig& config, std::uint32_t level) { onReconfigure(config, level); });
 
@@ -142,38 +144,52 @@ void ClothNode::reanchor() {
 
 void ClothNode::onTimer(const ros::TimerEvent&) {
   const ros::Time now = ros::Time::now();
+  if (anchored_ && now < last_tick_) {
+    // /clock went backwards (a looping bag, a simulator reset): start counting frames from here.
+    ROS_WARN("cloth_node: time jumped back from %.3f s to %.3f s; frames are counted from now", last_tick_.toSec(),
+             now.toSec());
+    reanchor();
+  }
+  last_tick_ = now;
   if (!anchored_) reanchor();
   if (anchored_ && !paused_) {
-    const double elapsed_frames = (now - anchor_time_).toSec() * simulation_->options().frame_rate_hz;
+    const double elapsed_frames =
+        std::max(0.0, (now - anchor_time_).toSec() * simulation_->options().frame_rate_hz);
     const auto due = anchor_frame_ + static_cast<std::uint64_t>(std::floor(elapsed_frames + kFrameDueTolerance));
     std::int64_t behind = static_cast<std::int64_t>(due) - static_cast<std::int64_t>(simulation_->state().frame);
-    // In wall time a slow machine must not snowball; under /clock every frame is owed (determinism).
-    if (!ros::Time::isSimTime() && behind > kMaxCatchUpFrames) {
-      dropped_frames_ += behind - kMaxCatchUpFrames;
-      behind = kMaxCatchUpFrames;
-      advanceFrames(static_cast<int>(behind));
+    // In wall time a slow machine must not snowball; under /clock every frame is owed (determinism),
+    // unless the clock leaps far ahead (a bag's first stamp after zero), which would stall the node.
+    const std::int64_t most = ros::Time::isSimTime() ? kMaxSimTimeCatchUpFrames : kMaxCatchUpFrames;
+    if (behind > most) {
+      if (ros::Time::isSimTime()) {
+        ROS_WARN("cloth_node: /clock leapt %lld frames ahead; simulating %lld and counting from there",
+                 static_cast<long long>(behind), static_cast<long long>(most));
+      }
+      dropped_frames_ += behind - most;
+      advanceFrames(static_cast<int>(most));
       reanchor();
-    } else if (behind > 0) {
-      advanceFrames(static_cast<int>(behind));
+    } else if (behind > 0 && !advanceFrames(static_cast<int>(behind))) {
+      reanchor();  // a frame was rolled back: owe nothing, try again at the next tick
     }
   }
   publish(now);
   diagnostics_.update();
 }
 
-void ClothNode::advanceFrames(int frames) {
+bool ClothNode::advanceFrames(int frames) {
   for (int k = 0; k < frames; ++k) {
     const auto start = std::chrono::steady_clock::now();
     last_report_ = simulation_->advanceFrame();
     step_cost_ms_ =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() * kMillisecondsPerSecond;
-    if (last_report_.stable) {
-      window_sim_s_ += simulation_->options().frameDuration_s();
-    } else {
+    if (!last_report_.reason.empty()) ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: %s", last_report_.reason.c_str());
+    if (!last_report_.stable) {
       ++unstable_frames_;
-      ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: %s", last_report_.reason.c_str());
+      return false;  // the same frame would diverge again right away: leave it to the next tick
     }
+    window_sim_s_ += simulation_->options().frameDuration_s();
   }
+  return true;
 }
 
 void ClothNode::publish(const ros::Time& stamp) {
@@ -194,9 +210,9 @@ void ClothNode::publish(const ros::Time& stamp) {
 void ClothNode::onWind(const geometry_msgs::Vector3Stamped::ConstPtr& message) {
   geometry_msgs::Vector3Stamped wind = *message;
   const Eigen::Vector3d raw(wind.vector.x, wind.vector.y, wind.vector.z);
-  if (!raw.allFinite() || raw.norm() > kMaxWind_m_per_s) {
+  if (!raw.allFinite() || raw.norm() > core::OptionLimits::kMaxWindSpeed_m_per_s) {
     ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~wind (%g, %g, %g) m/s: must be finite and below %g m/s",
-                      raw.x(), raw.y(), raw.z(), kMaxWind_m_per_s);
+                      raw.x(), raw.y(), raw.z(), core::OptionLimits::kMaxWindSpeed_m_per_s);
     return;
   }
   if (!wind.header.frame_id.empty() && wind.header.frame_id != frame_id_) {
@@ -282,13 +298,13 @@ bool ClothNode::onStep(cloth_sim::Step::Request& request, cloth_sim::Step::Respo
                        std::to_string(kMaxStepFrames) + "]";
     return true;
   }
-  const int unstable_before = unstable_frames_;
-  advanceFrames(static_cast<int>(request.frames));
+  const std::uint64_t frame_before = simulation_->state().frame;
+  response.success = advanceFrames(static_cast<int>(request.frames));
   publish(ros::Time::now());
   response.sim_time = simulation_->state().time_s;
-  response.success = unstable_frames_ == unstable_before;
-  response.message = response.success ? "advanced " + std::to_string(request.frames) + " frames"
-                                      : "some frames diverged and were rolled back: " + last_report_.reason;
+  const std::uint64_t advanced = simulation_->state().frame - frame_before;
+  response.message = response.success ? "advanced " + std::to_string(advanced) + " frames"
+                                      : "stopped after " + std::to_string(advanced) + " frames: " + last_report_.reason;
   return true;
 }
 

@@ -2,6 +2,8 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
+
 namespace cloth_sim {
 
 namespace {
@@ -29,6 +31,8 @@ constexpr double kPlaneDrawnThickness_m = 0.005;
 /// Colliders are drawn this far inside their true surface, m: cloth resting on a surface drawn exactly
 /// there flickers through it in rviz (z-fighting).
 constexpr double kDrawnInset_m = 0.01;
+/// Smallest drawn size, m: a collider thinner than twice the inset still shows (rviz rejects scale <= 0).
+constexpr double kMinDrawnSize_m = 0.002;
 constexpr float kColliderAlpha = 0.6f;
 
 visualization_msgs::Marker colliderMarker(const std::string& frame_id, const ros::Time& stamp, const std::string& ns,
@@ -63,7 +67,7 @@ visualization_msgs::MarkerArray toColliderMarkers(const core::Simulation& simula
   const std::vector<Eigen::Vector3d> centers = simulation.sphereCenters();
   const Eigen::Quaterniond upright = Eigen::Quaterniond::Identity();
   for (std::size_t i = 0; i < centers.size(); ++i) {
-    const double diameter_m = 2.0 * (colliders.spheres[i].radius_m - kDrawnInset_m);
+    const double diameter_m = std::max(2.0 * (colliders.spheres[i].radius_m - kDrawnInset_m), kMinDrawnSize_m);
     markers.markers.push_back(colliderMarker(frame_id, stamp, "spheres", static_cast<int>(i),
                                              visualization_msgs::Marker::SPHERE, centers[i], upright,
                                              Eigen::Vector3d::Constant(diameter_m)));
@@ -72,7 +76,8 @@ visualization_msgs::MarkerArray toColliderMarkers(const core::Simulation& simula
     const core::BoxCollider& box = colliders.boxes[i];
     markers.markers.push_back(colliderMarker(frame_id, stamp, "boxes", static_cast<int>(i),
                                              visualization_msgs::Marker::CUBE, 0.5 * (box.min_m + box.max_m), upright,
-                                             box.max_m - box.min_m - Eigen::Vector3d::Constant(2.0 * kDrawnInset_m)));
+                                             (box.max_m - box.min_m - Eigen::Vector3d::Constant(2.0 * kDrawnInset_m))
+                                                 .cwiseMax(kMinDrawnSize_m)));
   }
   for (std::size_t i = 0; i < colliders.planes.size(); ++i) {
     const core::PlaneCollider& plane = colliders.planes[i];

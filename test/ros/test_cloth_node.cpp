@@ -5,6 +5,7 @@
 //   services.test     Services.*:LoadScene.*:Reconfigure.*:Diagnostics.*
 //   ball.test         Ball.*                                   (config/scenes/ball.yaml)
 //   sim_time.test     SimTime.*                                (/use_sim_time, the test drives /clock)
+//   sim_time_twins.test SimTimeTwins.*                       (two node processes on one /clock)
 //   bad_params.test   BadParams.*                              (no node: the tests start it themselves)
 // Every wait is a condition with a wall-clock deadline; no test sleeps to "let things settle".
 #include "test_helpers.h"
@@ -498,7 +499,7 @@ TEST_F(NodeTest, ReconfigureSubstepsChangesTheState) {
   ASSERT_EQ(states_->waitForNext(10.0, states_->count())->substeps, 40u);
   auto reconfigure = intParameter("substeps", 80);
   const std::uint64_t since = states_->count();
-  ASSERT_TRUE(callService(nodeTopic("set_parameters"), reconfigure));
+  ASSERT_TRUE(callService(nodeTopic("tuning/set_parameters"), reconfigure));
   EXPECT_TRUE(states_->waitFor([](const ClothState& s) { return s.substeps == 80; }, 10.0, since))
       << "ClothState.substeps stayed " << states_->latest()->substeps;
 }
@@ -511,7 +512,7 @@ TEST_F(NodeTest, ReconfigureRefusesAnUnknownIntegrator) {
   parameter.name = "integrator";
   parameter.value = "bogus";
   reconfigure.request.config.strs.push_back(parameter);
-  ASSERT_TRUE(callService(nodeTopic("set_parameters"), reconfigure));
+  ASSERT_TRUE(callService(nodeTopic("tuning/set_parameters"), reconfigure));
   // The answer is the configuration in force: the old integrator, not the refused one.
   EXPECT_EQ(stringIn(reconfigure.response.config, "integrator"), before);
   // Alive, still on the old integrator.
@@ -545,7 +546,7 @@ TEST_F(NodeTest, ReconfigureKeepsTheWindFromTheTopic) {
   ASSERT_TRUE(blowing) << "the wind never acted";
 
   auto reconfigure = intParameter("substeps", 40);
-  ASSERT_TRUE(callService(nodeTopic("set_parameters"), reconfigure));
+  ASSERT_TRUE(callService(nodeTopic("tuning/set_parameters"), reconfigure));
   ASSERT_TRUE(reset());  // reset keeps tuning and wind
   const auto s = step(25);
   ASSERT_TRUE(s);
@@ -560,7 +561,7 @@ TEST_F(NodeTest, ReconfigureWindSliderBlows) {
   parameter.name = "wind_y";
   parameter.value = 5.0;
   reconfigure.request.config.doubles.push_back(parameter);
-  ASSERT_TRUE(callService(nodeTopic("set_parameters"), reconfigure));
+  ASSERT_TRUE(callService(nodeTopic("tuning/set_parameters"), reconfigure));
   const auto s = step(25);
   ASSERT_TRUE(s);
   EXPECT_GT(meanY(*s), 1e-3) << "the wind_y slider did not blow";
@@ -692,6 +693,53 @@ TEST(SimTime, ResetAndRerunIsBitIdentical) {
   EXPECT_EQ(second_run->frame, first_run->frame);
   EXPECT_EQ(second_run->sim_time, first_run->sim_time);
   EXPECT_TRUE(sameBits(*first_run, *second_run));
+}
+
+TEST(SimTimeTwins, TwoNodeProcessesOnOneClockGiveIdenticalStates) {
+  ASSERT_TRUE(ros::Time::isSimTime()) << "sim_time_twins.test must set /use_sim_time";
+  ros::NodeHandle nh;
+  Monitor<ClothState> first(nh, nodeTopic("state"));
+  Monitor<ClothState> twin(nh, privateParam("twin", "/cloth_twin") + "/state");
+  ros::Publisher clock_pub = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  ASSERT_TRUE(waitUntil([&] { return first.publisherCount() >= 1 && twin.publisherCount() >= 1; }, 15.0))
+      << "both nodes must publish ~state";
+  const auto publishClock = [&](const ros::Time& time) {
+    rosgraph_msgs::Clock clock;
+    clock.clock = time;
+    clock_pub.publish(clock);
+  };
+  // Each node anchors frame 0 on the first clock it sees; repeat t0 until both answer with frame 0.
+  const ros::Time t0(100, 0);
+  std::uint64_t first_index = 0;
+  std::uint64_t twin_index = 0;
+  ClothState::ConstPtr a;
+  ClothState::ConstPtr b;
+  const auto deadline = deadlineIn(20.0);
+  while ((!a || !b) && Clock::now() < deadline) {
+    publishClock(t0);
+    if (!a) a = first.waitFor([&](const ClothState& s) { return s.header.stamp == t0; }, 0.2, 0, &first_index);
+    if (!b) b = twin.waitFor([&](const ClothState& s) { return s.header.stamp == t0; }, 0.2, 0, &twin_index);
+  }
+  ASSERT_TRUE(a && b) << "a node did not answer the first clock";
+  ASSERT_EQ(a->frame, 0u);
+  ASSERT_EQ(b->frame, 0u);
+  ASSERT_TRUE(sameBits(*a, *b));
+  const ClothState::ConstPtr start = a;
+
+  constexpr std::uint64_t kFrames = 50;
+  const ros::Duration tick(0, 20000000);  // one frame, exactly 0.02 s
+  ros::Time now = t0;
+  for (std::uint64_t k = 1; k <= kFrames; ++k) {
+    now += tick;
+    publishClock(now);
+    a = first.waitFor([&](const ClothState& s) { return s.frame >= k; }, 10.0, first_index + 1, &first_index);
+    b = twin.waitFor([&](const ClothState& s) { return s.frame >= k; }, 10.0, twin_index + 1, &twin_index);
+    ASSERT_TRUE(a && b) << "no state for frame " << k;
+    ASSERT_EQ(a->frame, k) << "one tick advanced more than one frame";
+    ASSERT_EQ(b->frame, k) << "one tick advanced more than one frame";
+    ASSERT_TRUE(sameBits(*a, *b)) << "the two runs differ at frame " << k;
+  }
+  EXPECT_FALSE(sameBits(*start, *a)) << "the cloth did not move: the comparison would prove nothing";
 }
 
 // ---- 9. Bad parameters make the node exit (bad_params.test) ---------------------------------------

@@ -37,17 +37,19 @@ struct Names {
   static constexpr const char* kLoadSceneService = "load_scene";
   static constexpr const char* kSceneParam = "scene";
   static constexpr const char* kFrameIdParam = "frame_id";
+  /// dynamic_reconfigure's namespace: ~tuning/set_parameters, ~tuning/parameter_updates.
+  static constexpr const char* kTuningNamespace = "tuning";
 };
 
 class ClothNode {
  public:
   /// Most frames one step service call may ask for.
-  static constexpr std::uint32_t kMaxStepFrames = 100000;
+  static constexpr std::uint32_t kMaxStepFrames = 10000;
   /// Most frames a late timer tick catches up in wall-time mode; further lag is dropped (and shows as a
   /// real-time factor below 1) rather than stalling the node.
   static constexpr int kMaxCatchUpFrames = 5;
-  /// Wind faster than this (m/s) is refused as absurd.
-  static constexpr double kMaxWind_m_per_s = 100.0;
+  /// Most frames one tick catches up under /use_sim_time; a bigger leap of /clock is not simulated.
+  static constexpr int kMaxSimTimeCatchUpFrames = 500;
 
   ClothNode(const ros::NodeHandle& node_handle, const ros::NodeHandle& private_handle);
 
@@ -63,7 +65,8 @@ class ClothNode {
   void install(std::unique_ptr<core::Simulation> simulation);
 
   void onTimer(const ros::TimerEvent& event);
-  void advanceFrames(int frames);
+  /// Advances up to `frames` frames; stops at, and returns false for, a frame the core rolled back.
+  bool advanceFrames(int frames);
   void publish(const ros::Time& stamp);
   void reanchor();
 
@@ -101,6 +104,7 @@ class ClothNode {
   bool paused_ = false;
   /// Frames are due at anchor_time_ + k / frame_rate (ROS time: wall clock, or /clock under use_sim_time).
   ros::Time anchor_time_;
+  ros::Time last_tick_;  ///< to notice /clock going backwards
   std::uint64_t anchor_frame_ = 0;
   bool anchored_ = false;
 
