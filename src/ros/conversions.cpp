@@ -8,6 +8,13 @@ namespace cloth_sim {
 
 namespace {
 
+std_msgs::Header header(const std::string& frame_id, const ros::Time& stamp) {
+  std_msgs::Header h;
+  h.frame_id = frame_id;
+  h.stamp = stamp;
+  return h;
+}
+
 geometry_msgs::Point toPoint(const Eigen::Vector3d& p) {
   geometry_msgs::Point point;
   point.x = p.x();
@@ -39,8 +46,7 @@ visualization_msgs::Marker colliderMarker(const std::string& frame_id, const ros
                                           int id, int type, const Eigen::Vector3d& center_m,
                                           const Eigen::Quaterniond& orientation, const Eigen::Vector3d& size_m) {
   visualization_msgs::Marker marker;
-  marker.header.frame_id = frame_id;
-  marker.header.stamp = stamp;
+  marker.header = header(frame_id, stamp);
   marker.ns = ns;
   marker.id = id;
   marker.type = type;
@@ -95,8 +101,7 @@ visualization_msgs::MarkerArray toColliderMarkers(const core::Simulation& simula
 visualization_msgs::Marker toMeshMarker(const core::Simulation& simulation, const std::string& frame_id,
                                         const ros::Time& stamp) {
   visualization_msgs::Marker marker;
-  marker.header.frame_id = frame_id;
-  marker.header.stamp = stamp;
+  marker.header = header(frame_id, stamp);
   marker.ns = "cloth";
   marker.id = 0;
   marker.type = visualization_msgs::Marker::TRIANGLE_LIST;
@@ -119,8 +124,7 @@ visualization_msgs::Marker toMeshMarker(const core::Simulation& simulation, cons
 cloth_sim::ClothState toStateMessage(const core::Simulation& simulation, const std::string& frame_id,
                                      const ros::Time& stamp) {
   cloth_sim::ClothState message;
-  message.header.frame_id = frame_id;
-  message.header.stamp = stamp;
+  message.header = header(frame_id, stamp);
   message.rows = simulation.grid().rows;
   message.cols = simulation.grid().cols;
   const core::ClothState& state = simulation.state();
@@ -150,8 +154,7 @@ std::vector<geometry_msgs::TransformStamped> toSphereTransforms(const core::Simu
   const std::vector<Eigen::Vector3d> centers = simulation.sphereCenters();
   for (std::size_t i = 0; i < centers.size(); ++i) {
     geometry_msgs::TransformStamped t;
-    t.header.frame_id = frame_id;
-    t.header.stamp = stamp;
+    t.header = header(frame_id, stamp);
     t.child_frame_id = "sphere_" + std::to_string(i);
     t.transform.translation.x = centers[i].x();
     t.transform.translation.y = centers[i].y();
