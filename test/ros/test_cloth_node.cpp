@@ -695,6 +695,63 @@ TEST(SimTime, ResetAndRerunIsBitIdentical) {
   EXPECT_TRUE(sameBits(*first_run, *second_run));
 }
 
+TEST(SimTime, ALeapingOrRewoundClockStillGivesOneFramePerTick) {
+  ASSERT_TRUE(ros::Time::isSimTime()) << "sim_time.test must set /use_sim_time";
+  ros::NodeHandle nh;
+  Monitor<ClothState> states(nh, nodeTopic("state"));
+  ros::Publisher clock_pub = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  ASSERT_TRUE(waitUntil([&] { return states.publisherCount() >= 1; }, 15.0)) << "node not publishing ~state";
+  const auto publishClock = [&](const ros::Time& time) {
+    rosgraph_msgs::Clock clock;
+    clock.clock = time;
+    clock_pub.publish(clock);
+  };
+  std::uint64_t index = 0;
+  // Holds the clock at `time` until the node publishes a state stamped with it.
+  const auto settleAt = [&](const ros::Time& time) {
+    ClothState::ConstPtr state;
+    const auto deadline = deadlineIn(20.0);
+    while (!state && Clock::now() < deadline) {
+      publishClock(time);
+      state = states.waitFor([&](const ClothState& s) { return s.header.stamp == time; }, 0.2, index, &index);
+    }
+    return state;
+  };
+  const ros::Duration tick(0, 20000000);  // one frame, exactly 0.02 s
+  constexpr std::uint64_t kTicks = 10;
+  // From a settled clock, each 0.02 s tick must advance exactly one frame.
+  const auto expectOneFramePerTick = [&](ros::Time time, std::uint64_t frame) {
+    for (std::uint64_t k = 1; k <= kTicks; ++k) {
+      time += tick;
+      publishClock(time);
+      const auto state = states.waitFor([&](const ClothState& s) { return s.header.stamp == time; }, 10.0, index, &index);
+      ASSERT_TRUE(state) << "no state at " << time;
+      EXPECT_EQ(state->frame, frame + k);
+    }
+  };
+  // A leap of far more than kMaxSimTimeCatchUpFrames (500) frames is not simulated frame by frame.
+  const ros::Time settled(300, 0);
+  const auto before = settleAt(settled);
+  ASSERT_TRUE(before);
+  const ros::Time leapt = settled + ros::Duration(100.0);  // 5000 frames ahead
+  const auto after_leap = settleAt(leapt);
+  ASSERT_TRUE(after_leap) << "the node stalled on a leap of /clock";
+  EXPECT_EQ(after_leap->frame, before->frame + 500);
+  ASSERT_NO_FATAL_FAILURE(expectOneFramePerTick(leapt, after_leap->frame));
+  // Backwards (a looping bag): no frame is lost or invented, and counting goes on from there. roscpp
+  // restarts its timers a period after the jump it notices, so tick on until the node answers.
+  ros::Time rewound(200, 0);
+  ClothState::ConstPtr after_rewind;
+  for (std::uint64_t k = 0; k < kTicks && !after_rewind; ++k) {
+    rewound += tick;
+    publishClock(rewound);
+    after_rewind = states.waitFor([&](const ClothState& s) { return s.header.stamp == rewound; }, 1.0, index, &index);
+  }
+  ASSERT_TRUE(after_rewind) << "the node stopped publishing after /clock went back";
+  EXPECT_EQ(after_rewind->frame, after_leap->frame + kTicks);
+  ASSERT_NO_FATAL_FAILURE(expectOneFramePerTick(rewound, after_rewind->frame));
+}
+
 TEST(SimTimeTwins, TwoNodeProcessesOnOneClockGiveIdenticalStates) {
   ASSERT_TRUE(ros::Time::isSimTime()) << "sim_time_twins.test must set /use_sim_time";
   ros::NodeHandle nh;
