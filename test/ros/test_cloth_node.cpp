@@ -631,29 +631,47 @@ TEST(Ball, SphereFrameMoves) {
 
 // ---- 8. Determinism under /use_sim_time (sim_time.test) -------------------------------------------
 
+/// Drives /clock for the sim-time tests, one exact 0.02 s frame (kTick) at a time.
+class ClockDriver {
+ public:
+  static inline const ros::Duration kTick{0, 20000000};
+
+  explicit ClockDriver(ros::NodeHandle& nh) : publisher_(nh.advertise<rosgraph_msgs::Clock>("/clock", 10)) {}
+
+  void publish(const ros::Time& time) {
+    rosgraph_msgs::Clock clock;
+    clock.clock = time;
+    publisher_.publish(clock);
+  }
+
+  /// Holds /clock at `time` until `states` has a state stamped with it (a node anchors on the first clock
+  /// it sees, and early clocks may be lost); searches from *index and leaves it at the state found. Null
+  /// if none came within 20 s.
+  ClothState::ConstPtr settleAt(const ros::Time& time, Monitor<ClothState>& states, std::uint64_t* index) {
+    ClothState::ConstPtr state;
+    const auto deadline = deadlineIn(20.0);
+    while (!state && Clock::now() < deadline) {
+      publish(time);
+      state = states.waitFor([&](const ClothState& s) { return s.header.stamp == time; }, 0.2, *index, index);
+    }
+    return state;
+  }
+
+ private:
+  ros::Publisher publisher_;
+};
+
 TEST(SimTime, ResetAndRerunIsBitIdentical) {
   ASSERT_TRUE(ros::Time::isSimTime()) << "sim_time.test must set /use_sim_time";
   ros::NodeHandle nh;
   Monitor<ClothState> states(nh, nodeTopic("state"));
-  ros::Publisher clock_pub = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  ClockDriver clock(nh);
   // The node publishes its state only to subscribers: wait until ours is connected.
   ASSERT_TRUE(waitUntil([&] { return states.publisherCount() >= 1; }, 15.0)) << "node not publishing ~state";
 
-  const auto publishClock = [&](const ros::Time& time) {
-    rosgraph_msgs::Clock clock;
-    clock.clock = time;
-    clock_pub.publish(clock);
-  };
   const ros::Time t0(100, 0);
-  const ros::Duration tick(0, 20000000);  // one frame, exactly 0.02 s
-  // The node anchors frame 0 on its first clock; repeat t0 until it answers (earlier ones may be lost).
   std::uint64_t index = 0;
-  ClothState::ConstPtr first;
-  const auto deadline = deadlineIn(20.0);
-  while (!first && Clock::now() < deadline) {
-    publishClock(t0);
-    first = states.waitFor([&](const ClothState& s) { return s.header.stamp == t0; }, 0.2, 0, &index);
-  }
+  const ClothState::ConstPtr first = clock.settleAt(t0, states, &index);
   ASSERT_TRUE(first) << "no state stamped with the first clock";
   ASSERT_EQ(first->frame, 0u);
 
@@ -663,8 +681,8 @@ TEST(SimTime, ResetAndRerunIsBitIdentical) {
   const auto run = [&](std::uint64_t* since) -> ClothState::ConstPtr {
     ClothState::ConstPtr state;
     for (std::uint64_t k = 1; k <= kFrames; ++k) {
-      now += tick;
-      publishClock(now);
+      now += ClockDriver::kTick;
+      clock.publish(now);
       state = states.waitFor([&](const ClothState& s) { return s.frame >= k; }, 10.0, *since, since);
       if (!state) {
         ADD_FAILURE() << "no state for frame " << k;
@@ -699,31 +717,16 @@ TEST(SimTime, ALeapingOrRewoundClockStillGivesOneFramePerTick) {
   ASSERT_TRUE(ros::Time::isSimTime()) << "sim_time.test must set /use_sim_time";
   ros::NodeHandle nh;
   Monitor<ClothState> states(nh, nodeTopic("state"));
-  ros::Publisher clock_pub = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  ClockDriver clock(nh);
   ASSERT_TRUE(waitUntil([&] { return states.publisherCount() >= 1; }, 15.0)) << "node not publishing ~state";
-  const auto publishClock = [&](const ros::Time& time) {
-    rosgraph_msgs::Clock clock;
-    clock.clock = time;
-    clock_pub.publish(clock);
-  };
   std::uint64_t index = 0;
-  // Holds the clock at `time` until the node publishes a state stamped with it.
-  const auto settleAt = [&](const ros::Time& time) {
-    ClothState::ConstPtr state;
-    const auto deadline = deadlineIn(20.0);
-    while (!state && Clock::now() < deadline) {
-      publishClock(time);
-      state = states.waitFor([&](const ClothState& s) { return s.header.stamp == time; }, 0.2, index, &index);
-    }
-    return state;
-  };
-  const ros::Duration tick(0, 20000000);  // one frame, exactly 0.02 s
+  const auto settleAt = [&](const ros::Time& time) { return clock.settleAt(time, states, &index); };
   constexpr std::uint64_t kTicks = 10;
   // From a settled clock, each 0.02 s tick must advance exactly one frame.
   const auto expectOneFramePerTick = [&](ros::Time time, std::uint64_t frame) {
     for (std::uint64_t k = 1; k <= kTicks; ++k) {
-      time += tick;
-      publishClock(time);
+      time += ClockDriver::kTick;
+      clock.publish(time);
       const auto state = states.waitFor([&](const ClothState& s) { return s.header.stamp == time; }, 10.0, index, &index);
       ASSERT_TRUE(state) << "no state at " << time;
       EXPECT_EQ(state->frame, frame + k);
@@ -743,8 +746,8 @@ TEST(SimTime, ALeapingOrRewoundClockStillGivesOneFramePerTick) {
   ros::Time rewound(200, 0);
   ClothState::ConstPtr after_rewind;
   for (std::uint64_t k = 0; k < kTicks && !after_rewind; ++k) {
-    rewound += tick;
-    publishClock(rewound);
+    rewound += ClockDriver::kTick;
+    clock.publish(rewound);
     after_rewind = states.waitFor([&](const ClothState& s) { return s.header.stamp == rewound; }, 1.0, index, &index);
   }
   ASSERT_TRUE(after_rewind) << "the node stopped publishing after /clock went back";
@@ -757,26 +760,16 @@ TEST(SimTimeTwins, TwoNodeProcessesOnOneClockGiveIdenticalStates) {
   ros::NodeHandle nh;
   Monitor<ClothState> first(nh, nodeTopic("state"));
   Monitor<ClothState> twin(nh, privateParam("twin", "/cloth_twin") + "/state");
-  ros::Publisher clock_pub = nh.advertise<rosgraph_msgs::Clock>("/clock", 10);
+  ClockDriver clock(nh);
   ASSERT_TRUE(waitUntil([&] { return first.publisherCount() >= 1 && twin.publisherCount() >= 1; }, 15.0))
       << "both nodes must publish ~state";
-  const auto publishClock = [&](const ros::Time& time) {
-    rosgraph_msgs::Clock clock;
-    clock.clock = time;
-    clock_pub.publish(clock);
-  };
-  // Each node anchors frame 0 on the first clock it sees; repeat t0 until both answer with frame 0.
+  // Each node anchors frame 0 on the first clock it sees. Hold t0 until the first answers; the twin heard
+  // the same clocks, so its state stamped t0 is then already in (or on its way to) its monitor.
   const ros::Time t0(100, 0);
   std::uint64_t first_index = 0;
   std::uint64_t twin_index = 0;
-  ClothState::ConstPtr a;
-  ClothState::ConstPtr b;
-  const auto deadline = deadlineIn(20.0);
-  while ((!a || !b) && Clock::now() < deadline) {
-    publishClock(t0);
-    if (!a) a = first.waitFor([&](const ClothState& s) { return s.header.stamp == t0; }, 0.2, 0, &first_index);
-    if (!b) b = twin.waitFor([&](const ClothState& s) { return s.header.stamp == t0; }, 0.2, 0, &twin_index);
-  }
+  ClothState::ConstPtr a = clock.settleAt(t0, first, &first_index);
+  ClothState::ConstPtr b = clock.settleAt(t0, twin, &twin_index);
   ASSERT_TRUE(a && b) << "a node did not answer the first clock";
   ASSERT_EQ(a->frame, 0u);
   ASSERT_EQ(b->frame, 0u);
@@ -784,11 +777,10 @@ TEST(SimTimeTwins, TwoNodeProcessesOnOneClockGiveIdenticalStates) {
   const ClothState::ConstPtr start = a;
 
   constexpr std::uint64_t kFrames = 50;
-  const ros::Duration tick(0, 20000000);  // one frame, exactly 0.02 s
   ros::Time now = t0;
   for (std::uint64_t k = 1; k <= kFrames; ++k) {
-    now += tick;
-    publishClock(now);
+    now += ClockDriver::kTick;
+    clock.publish(now);
     a = first.waitFor([&](const ClothState& s) { return s.frame >= k; }, 10.0, first_index + 1, &first_index);
     b = twin.waitFor([&](const ClothState& s) { return s.frame >= k; }, 10.0, twin_index + 1, &twin_index);
     ASSERT_TRUE(a && b) << "no state for frame " << k;
