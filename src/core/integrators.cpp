@@ -1,10 +1,34 @@
 #include "cloth_sim/core/integrators.h"
 
+#include <cmath>
+
 namespace cloth_sim::core {
+
+void Dynamics::acceleration(const Eigen::Matrix3Xd& positions_m, const Eigen::Matrix3Xd& velocities_m_per_s,
+                            double time_s, Eigen::Matrix3Xd& accelerations_m_per_s2) {
+  forces(positions_m, velocities_m_per_s, time_s, accelerations_m_per_s2);
+  accelerations_m_per_s2 = accelerations_m_per_s2 * inverseMass_per_kg().asDiagonal();
+}
+
+void Dynamics::systemProduct(double step_s, const Eigen::Matrix3Xd& w, Eigen::Matrix3Xd& out) {
+  scaled_scratch_ = (step_s * step_s) * w;
+  differential_scratch_ = step_s * w;
+  forceDifferential(scaled_scratch_, differential_scratch_, out);
+  out = w * mass_kg().asDiagonal() - out;
+}
+
+StepReport& StepReport::operator+=(const StepReport& other) {
+  force_evaluations += other.force_evaluations;
+  solver_iterations += other.solver_iterations;
+  residual = std::max(residual, other.residual);
+  converged = converged && other.converged;
+  return *this;
+}
 
 const std::vector<IntegratorKind>& allIntegratorKinds() {
   static const std::vector<IntegratorKind> kinds{IntegratorKind::kForwardEuler, IntegratorKind::kSymplecticEuler,
-                                                 IntegratorKind::kMidpoint, IntegratorKind::kRK4};
+                                                 IntegratorKind::kMidpoint, IntegratorKind::kRK4,
+                                                 IntegratorKind::kImplicitEuler};
   return kinds;
 }
 
@@ -18,6 +42,8 @@ const char* integratorName(IntegratorKind kind) {
       return "midpoint";
     case IntegratorKind::kRK4:
       return "rk4";
+    case IntegratorKind::kImplicitEuler:
+      return "implicit_euler";
   }
   return "unknown";
 }
@@ -32,25 +58,30 @@ bool parseIntegratorName(const std::string& name, IntegratorKind* kind) {
   return false;
 }
 
-void ForwardEuler::step(const Dynamics& dynamics, double step_s, ClothState& state) {
-  acceleration_.resize(3, state.particleCount());
+std::string integratorNameList() {
+  std::string names;
+  for (IntegratorKind kind : allIntegratorKinds()) names += (names.empty() ? "" : ", ") + std::string(integratorName(kind));
+  return names;
+}
+
+StepReport ForwardEuler::step(Dynamics& dynamics, double step_s, ClothState& state) {
   dynamics.acceleration(state.positions_m, state.velocities_m_per_s, state.time_s, acceleration_);
   state.positions_m += step_s * state.velocities_m_per_s;  // the old velocity: this is what makes it forward
   state.velocities_m_per_s += step_s * acceleration_;
   state.time_s += step_s;
+  return {1, 0, 0.0, true};
 }
 
-void SymplecticEuler::step(const Dynamics& dynamics, double step_s, ClothState& state) {
-  acceleration_.resize(3, state.particleCount());
+StepReport SymplecticEuler::step(Dynamics& dynamics, double step_s, ClothState& state) {
   dynamics.acceleration(state.positions_m, state.velocities_m_per_s, state.time_s, acceleration_);
   state.velocities_m_per_s += step_s * acceleration_;
   state.positions_m += step_s * state.velocities_m_per_s;  // the new velocity (paper §6)
   state.time_s += step_s;
+  return {1, 0, 0.0, true};
 }
 
-void Midpoint::step(const Dynamics& dynamics, double step_s, ClothState& state) {
+StepReport Midpoint::step(Dynamics& dynamics, double step_s, ClothState& state) {
   const double half_s = 0.5 * step_s;
-  acceleration_.resize(3, state.particleCount());
   dynamics.acceleration(state.positions_m, state.velocities_m_per_s, state.time_s, acceleration_);
   half_positions_ = state.positions_m + half_s * state.velocities_m_per_s;
   half_velocities_ = state.velocities_m_per_s + half_s * acceleration_;
@@ -58,13 +89,13 @@ void Midpoint::step(const Dynamics& dynamics, double step_s, ClothState& state) 
   state.positions_m += step_s * half_velocities_;
   state.velocities_m_per_s += step_s * acceleration_;
   state.time_s += step_s;
+  return {2, 0, 0.0, true};
 }
 
-void RK4::step(const Dynamics& dynamics, double step_s, ClothState& state) {
+StepReport RK4::step(Dynamics& dynamics, double step_s, ClothState& state) {
   const Eigen::Matrix3Xd& x0 = state.positions_m;
   const Eigen::Matrix3Xd& v0 = state.velocities_m_per_s;
   const double t0 = state.time_s;
-  stage_acceleration_.resize(3, state.particleCount());
 
   // k1 at the start.
   dynamics.acceleration(x0, v0, t0, stage_acceleration_);
@@ -86,9 +117,117 @@ void RK4::step(const Dynamics& dynamics, double step_s, ClothState& state) {
   state.positions_m += (step_s / 6.0) * sum_position_rates_;
   state.velocities_m_per_s += (step_s / 6.0) * sum_velocity_rates_;
   state.time_s += step_s;
+  return {4, 0, 0.0, true};
 }
 
-std::unique_ptr<Integrator> makeIntegrator(IntegratorKind kind) {
+namespace {
+
+/// Inverts a symmetric 3x3 block (xx, yy, zz, xy, xz, yz) in place. The backward Euler blocks are
+/// M plus positive semi-definite terms, so they are positive definite; a block that is not (only
+/// possible with non-finite input) becomes the inverse of its diagonal.
+void invertSymmetricBlock(Eigen::Ref<Eigen::Matrix<double, 6, 1>> b) {
+  const double xx = b[0], yy = b[1], zz = b[2], xy = b[3], xz = b[4], yz = b[5];
+  const double c_xx = yy * zz - yz * yz;
+  const double c_xy = xz * yz - xy * zz;
+  const double c_xz = xy * yz - xz * yy;
+  const double det = xx * c_xx + xy * c_xy + xz * c_xz;
+  if (!(det > 0.0) || !std::isfinite(det)) {
+    b << 1.0 / xx, 1.0 / yy, 1.0 / zz, 0.0, 0.0, 0.0;
+    return;
+  }
+  const double inv = 1.0 / det;
+  b << c_xx * inv, (xx * zz - xz * xz) * inv, (xx * yy - xy * xy) * inv, c_xy * inv, c_xz * inv,
+      (xy * xz - xx * yz) * inv;
+}
+
+/// Sum over all entries of a .* b: the dot product of two 3 x N fields.
+double dot(const Eigen::Matrix3Xd& a, const Eigen::Matrix3Xd& b) { return a.cwiseProduct(b).sum(); }
+
+}  // namespace
+
+void ImplicitEuler::precondition(const Eigen::Matrix3Xd& r, Eigen::Matrix3Xd& out) const {
+  out.resize(3, r.cols());
+  for (Eigen::Index i = 0; i < r.cols(); ++i) {
+    const double* b = blocks_.col(i).data();
+    const double x = r(0, i), y = r(1, i), z = r(2, i);
+    const double keep = free_[i];
+    out(0, i) = keep * (b[0] * x + b[3] * y + b[4] * z);
+    out(1, i) = keep * (b[3] * x + b[1] * y + b[5] * z);
+    out(2, i) = keep * (b[4] * x + b[5] * y + b[2] * z);
+  }
+}
+
+StepReport ImplicitEuler::step(Dynamics& dynamics, double step_s, ClothState& state) {
+  const Eigen::Index count = state.positions_m.cols();
+  const double h = step_s;
+  const Eigen::Matrix3Xd& x0 = state.positions_m;
+  const Eigen::Matrix3Xd& v0 = state.velocities_m_per_s;
+  StepReport report;
+
+  dynamics.forces(x0, v0, state.time_s, forces_);
+  report.force_evaluations = 1;
+  dynamics.linearize(x0, v0, state.time_s);
+
+  // Right-hand side h (F0 + h dF/dx v0), filtered.
+  free_ = (dynamics.inverseMass_per_kg().array() > 0.0).cast<double>();
+  direction_ = h * v0;
+  residual_.setZero(3, count);
+  dynamics.forceDifferential(direction_, residual_, product_);  // h dF/dx v0
+  rhs_ = h * (forces_ + product_);
+
+  // Free particles start from dv = 0. Conjugate gradients started at zero grow the solution's energy
+  // norm monotonically towards the exact one, so a solve cut off at its iteration cap never injects
+  // energy; a start from explicit Euler's dv (h F0 / m) carries that method's unstable stiff modes, and a
+  // truncated solve does not remove them all (measured: it diverges at 128x128). Constrained particles:
+  // dv takes them exactly to their prescribed positions at t + h.
+  dv_.setZero(3, count);
+  prescribed_ = x0;
+  dynamics.constrainedPositions(state.time_s + h, prescribed_);
+  for (Eigen::Index i = 0; i < count; ++i) {
+    if (free_[i] == 0.0) dv_.col(i) = (prescribed_.col(i) - x0.col(i)) / h - v0.col(i);
+  }
+
+  dynamics.systemDiagonalBlocks(h, blocks_);
+  for (Eigen::Index i = 0; i < count; ++i) invertSymmetricBlock(blocks_.col(i));
+
+  // Baraff and Witkin's modified PCG: every residual and direction filtered to the free particles.
+  dynamics.systemProduct(h, dv_, product_);
+  residual_ = (rhs_ - product_) * free_.asDiagonal();
+  precondition(residual_, direction_);
+  double delta = dot(residual_, direction_);
+  product_ = rhs_ * free_.asDiagonal();
+  precondition(product_, preconditioned_);
+  // Measured against the right-hand side, never against the first residual: a poor start must not
+  // loosen the tolerance.
+  const double rhs_norm = dot(product_, preconditioned_);
+  const double reference = rhs_norm > 0.0 ? rhs_norm : delta;
+  const double target = options_.tolerance * options_.tolerance * reference;
+  int iteration = 0;
+  while (iteration < options_.max_iterations && delta > target) {
+    dynamics.systemProduct(h, direction_, product_);
+    product_ = product_ * free_.asDiagonal();
+    const double curvature = dot(direction_, product_);
+    if (!(curvature > 0.0)) break;  // only with non-finite input: the system is positive definite
+    const double alpha = delta / curvature;
+    dv_ += alpha * direction_;
+    residual_ -= alpha * product_;
+    precondition(residual_, preconditioned_);
+    const double delta_next = dot(residual_, preconditioned_);
+    direction_ = preconditioned_ + (delta_next / delta) * direction_;
+    delta = delta_next;
+    ++iteration;
+  }
+  report.solver_iterations = iteration;
+  report.residual = reference > 0.0 ? std::sqrt(std::max(delta, 0.0) / reference) : 0.0;
+  report.converged = delta <= target;
+
+  state.velocities_m_per_s += dv_;
+  state.positions_m += h * state.velocities_m_per_s;
+  state.time_s += h;
+  return report;
+}
+
+std::unique_ptr<Integrator> makeIntegrator(IntegratorKind kind, const SolverOptions& solver) {
   switch (kind) {
     case IntegratorKind::kForwardEuler:
       return std::make_unique<ForwardEuler>();
@@ -98,6 +237,8 @@ std::unique_ptr<Integrator> makeIntegrator(IntegratorKind kind) {
       return std::make_unique<Midpoint>();
     case IntegratorKind::kRK4:
       return std::make_unique<RK4>();
+    case IntegratorKind::kImplicitEuler:
+      return std::make_unique<ImplicitEuler>(solver);
   }
   return nullptr;
 }

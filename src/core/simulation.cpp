@@ -1,7 +1,5 @@
 #include "cloth_sim/core/simulation.h"
 
-#include "cloth_sim/core/constants.h"
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -21,44 +19,24 @@ bool sameGrid(const SceneOptions& a, const SceneOptions& b) {
          a.mass_kg == b.mass_kg;
 }
 
-}  // namespace
-
-/// The cloth's right-hand side: sums the switched-on force kernels and divides by mass.
-class Simulation::ClothDynamics final : public Dynamics {
- public:
-  explicit ClothDynamics(const Simulation& simulation) : sim_(simulation) {}
-
-  void acceleration(const Eigen::Matrix3Xd& positions_m, const Eigen::Matrix3Xd& velocities_m_per_s, double time_s,
-                    Eigen::Matrix3Xd& accelerations_m_per_s2) const override {
-    const SceneOptions& o = sim_.options_;
-    forces_N_.setZero(3, positions_m.cols());
-    for (int k = 0; k < kSpringKindCount; ++k) {
-      if (!o.springs[k].enabled) continue;
-      accumulateSpringForces(sim_.grid_.springs[k], o.springs[k], positions_m, velocities_m_per_s, forces_N_);
-    }
-    if (!o.gravity_m_per_s2.isZero()) accumulateGravity(sim_.mass_kg_, o.gravity_m_per_s2, forces_N_);
-    if (o.air_damping_N_s_per_m > 0.0) accumulateAirDamping(o.air_damping_N_s_per_m, velocities_m_per_s, forces_N_);
-    if (o.wind_enabled) {
-      accumulateWindForces(sim_.grid_.triangles, o.wind, windVelocityAt(o.wind, time_s), positions_m,
-                           velocities_m_per_s, forces_N_);
-    }
-    if (!sim_.grasps_.empty()) accumulateGraspForces(sim_.grasps_, positions_m, velocities_m_per_s, forces_N_);
-    accelerations_m_per_s2.noalias() = forces_N_ * sim_.inverse_mass_per_kg_.asDiagonal();
-  }
-
- private:
-  const Simulation& sim_;
-  mutable Eigen::Matrix3Xd forces_N_;  ///< scratch, reused across calls
-};
-
-Simulation::Simulation(const SceneOptions& options) : options_(options) {
+/// The options if they are valid; throws std::invalid_argument with the first problem otherwise.
+const SceneOptions& validated(const SceneOptions& options) {
   const std::vector<std::string> problems = validateSceneOptions(options);
   if (!problems.empty()) throw std::invalid_argument("invalid scene options: " + problems.front());
-  grid_ = buildClothGrid(options.rows, options.cols, options.width_m, options.height_m, options.origin_m,
-                         options.u_axis, options.v_axis);
+  return options;
+}
+
+}  // namespace
+
+Simulation::Simulation(const SceneOptions& options)
+    : options_(validated(options)),
+      grid_(buildClothGrid(options.rows, options.cols, options.width_m, options.height_m, options.origin_m,
+                           options.u_axis, options.v_axis)),
+      mass_kg_(Eigen::VectorXd::Constant(grid_.particleCount(), options.mass_kg / grid_.particleCount())),
+      force_model_(grid_, options_, mass_kg_, inputs_) {
   colors_ = checkerColors(grid_.uv);
-  integrator_ = makeIntegrator(options.integrator);
-  dynamics_ = std::make_unique<ClothDynamics>(*this);
+  integrator_ = makeIntegrator(options.integrator, options.solver);
+  inputs_.wind_m_per_s = options.wind.velocity_m_per_s;
   reset();
 }
 
@@ -67,17 +45,18 @@ Simulation::~Simulation() = default;
 void Simulation::reset() {
   const int count = grid_.particleCount();
   std::string unused;
-  pinned_ = resolvePins(options_.pins, grid_.rows, grid_.cols, &unused);
-  mass_kg_ = Eigen::VectorXd::Constant(count, options_.mass_kg / count);
-  inverse_mass_per_kg_ = mass_kg_.cwiseInverse();
-  for (int i : pinned_) inverse_mass_per_kg_[i] = 0.0;
-  grasps_.clear();
-  pin_anchors_m_ = grid_.rest_positions_m;
+  inputs_.pins = resolvePins(options_.pins, grid_.rows, grid_.cols, &unused);
+  inputs_.pin_anchors_m.resize(3, static_cast<Eigen::Index>(inputs_.pins.size()));
+  for (std::size_t p = 0; p < inputs_.pins.size(); ++p) {
+    inputs_.pin_anchors_m.col(p) = grid_.rest_positions_m.col(inputs_.pins[p]);
+  }
+  inputs_.grasps.clear();
+  force_model_.refreshConstraints();
   state_.positions_m = grid_.rest_positions_m;
   state_.velocities_m_per_s.setZero(3, count);
   state_.time_s = 0.0;
   state_.frame = 0;
-  enforcePins(0.0, state_);
+  force_model_.enforceConstraints(0.0, state_);
 }
 
 bool Simulation::restoreState(const ClothState& state, std::string* error) {
@@ -90,35 +69,20 @@ bool Simulation::restoreState(const ClothState& state, std::string* error) {
   return true;
 }
 
-Eigen::Vector3d Simulation::pinOffset(double time_s) const {
-  return options_.pin_motion_amplitude_m * std::sin(kTwoPi * time_s / options_.pin_motion_period_s);
-}
-
-void Simulation::enforcePins(double time_s, ClothState& state) const {
-  const double angular_rate = kTwoPi / options_.pin_motion_period_s;
-  const Eigen::Vector3d offset_m = pinOffset(time_s);
-  const Eigen::Vector3d velocity_m_per_s =
-      options_.pin_motion_amplitude_m * angular_rate * std::cos(angular_rate * time_s);
-  for (int i : pinned_) {
-    if (inverse_mass_per_kg_[i] != 0.0) continue;  // off its hook while a grasp holds it
-    state.positions_m.col(i) = pin_anchors_m_.col(i) + offset_m;
-    state.velocities_m_per_s.col(i) = velocity_m_per_s;
-  }
-}
-
-ContactStats Simulation::integrateFrame(int substeps) {
+ContactStats Simulation::integrateFrame(int substeps, StepReport* steps) {
   ContactStats contacts;
   const double step_s = options_.frameDuration_s() / substeps;
   const double frame_start_s = state_.time_s;
+  const Eigen::VectorXd& inverse_mass = force_model_.inverseMass_per_kg();
   for (int k = 0; k < substeps; ++k) {
     const double t0_s = state_.time_s;
     if (!options_.colliders.empty()) substep_start_positions_m_ = state_.positions_m;
-    integrator_->step(*dynamics_, step_s, state_);
+    *steps += integrator_->step(force_model_, step_s, state_);
     // Times from the frame start, not summed step by step, so frames land exactly on k / frame_rate.
     state_.time_s = frame_start_s + (k + 1) * step_s;
-    enforcePins(state_.time_s, state_);
+    force_model_.enforceConstraints(state_.time_s, state_);
     if (!options_.colliders.empty()) {
-      contacts += resolveContacts(options_.colliders, options_.contact, t0_s, state_.time_s, inverse_mass_per_kg_,
+      contacts += resolveContacts(options_.colliders, options_.contact, t0_s, state_.time_s, inverse_mass,
                                   substep_start_positions_m_, state_.positions_m, state_.velocities_m_per_s);
     }
   }
@@ -128,16 +92,18 @@ ContactStats Simulation::integrateFrame(int substeps) {
 FrameReport Simulation::advanceFrame() {
   FrameReport report;
   frame_start_ = state_;
-  // The guard: a frame that diverges is recomputed from its start with twice the substeps, up to
-  // kGuardDoublings times; only if that fails too is it rolled back. A too-stiff grasp or slider then
+  // The guard: a frame that diverges is recomputed from its start with twice the substeps, up to its
+  // number of attempts; only if that fails too is it rolled back. A too-stiff grasp or slider then
   // costs time instead of freezing the cloth.
   bool accepted = false;
-  for (int doubling = 0; doubling <= kGuardDoublings && !accepted; ++doubling) {
-    report.substeps_used = options_.substeps << doubling;
-    report.contacts = integrateFrame(report.substeps_used);
-    accepted = isFiniteAndBounded(state_, kDivergenceBound_m);
+  for (int attempt = 0; attempt < guard_.attempts() && !accepted; ++attempt) {
+    report.substeps_used = guard_.substeps(options_.substeps, attempt);
+    report.steps = StepReport();
+    report.contacts = integrateFrame(report.substeps_used, &report.steps);
+    accepted = guard_.accepts(state_);
     if (!accepted) state_ = frame_start_;
   }
+  report.recomputed = report.substeps_used != options_.substeps;
   std::ostringstream reason;
   if (!accepted) {
     report.stable = false;
@@ -149,7 +115,7 @@ FrameReport Simulation::advanceFrame() {
   }
   ++state_.frame;
   report.max_strain = maxStructuralStrain();
-  if (report.substeps_used != options_.substeps) {
+  if (report.recomputed) {
     reason << "frame " << state_.frame << " diverged with " << options_.substeps << " substeps and was recomputed with "
            << report.substeps_used << ": raise substeps or lower the stiffness";
   } else if (report.max_strain > kStrainWarning) {
@@ -169,13 +135,16 @@ bool Simulation::retune(const SceneOptions& options, std::string* error) {
     *error = problems.front();
     return false;
   }
-  if (options.integrator != options_.integrator) integrator_ = makeIntegrator(options.integrator);
+  if (options.integrator != options_.integrator || options.solver.tolerance != options_.solver.tolerance ||
+      options.solver.max_iterations != options_.solver.max_iterations) {
+    integrator_ = makeIntegrator(options.integrator, options.solver);
+  }
   options_ = options;
   return true;
 }
 
 void Simulation::setWindVelocity(const Eigen::Vector3d& wind_m_per_s) {
-  options_.wind.velocity_m_per_s = wind_m_per_s;
+  inputs_.wind_m_per_s = wind_m_per_s;
   options_.wind_enabled = true;
 }
 
@@ -201,14 +170,14 @@ bool Simulation::grab(const GraspRequest& request, std::string* error) {
   }
   const double stiffness =
       request.stiffness_N_per_m > 0.0 ? request.stiffness_N_per_m : options_.grasp_stiffness_N_per_m;
-  for (Grasp& grasp : grasps_) {
+  for (Grasp& grasp : inputs_.grasps) {
     if (grasp.id != request.id) continue;
     grasp.target_m = request.target_m;  // dragging: the held particle stays the same
     grasp.stiffness_N_per_m = stiffness;
     grasp.extra_force_N = request.extra_force_N;
     return true;
   }
-  if (grasps_.size() >= kMaxGrasps) {
+  if (inputs_.grasps.size() >= kMaxGrasps) {
     *error = "already " + std::to_string(kMaxGrasps) + " grasps held: release one first";
     return false;
   }
@@ -220,23 +189,24 @@ bool Simulation::grab(const GraspRequest& request, std::string* error) {
   grasp.damping_N_s_per_m = options_.grasp_damping_N_s_per_m;
   grasp.extra_force_N = request.extra_force_N;
   // A held pin comes off its hook (paper: pins move only when grasped or driven); release() re-hooks it.
-  inverse_mass_per_kg_[grasp.particle] = 1.0 / mass_kg_[grasp.particle];
-  grasps_.push_back(grasp);
+  inputs_.grasps.push_back(grasp);
+  force_model_.refreshConstraints();
   return true;
 }
 
 bool Simulation::release(std::uint32_t id) {
-  const auto held = std::find_if(grasps_.begin(), grasps_.end(), [id](const Grasp& g) { return g.id == id; });
-  if (held == grasps_.end()) return false;
+  std::vector<Grasp>& grasps = inputs_.grasps;
+  const auto held = std::find_if(grasps.begin(), grasps.end(), [id](const Grasp& g) { return g.id == id; });
+  if (held == grasps.end()) return false;
   const int particle = held->particle;
-  grasps_.erase(held);
-  const bool still_held =
-      std::any_of(grasps_.begin(), grasps_.end(), [particle](const Grasp& g) { return g.particle == particle; });
-  if (!still_held && std::binary_search(pinned_.begin(), pinned_.end(), particle)) {
+  grasps.erase(held);
+  const auto pin = std::lower_bound(inputs_.pins.begin(), inputs_.pins.end(), particle);
+  if (!inputs_.isGrasped(particle) && pin != inputs_.pins.end() && *pin == particle) {
     // Hang it on a hook where the hand let go: the pin's motion continues from there.
-    pin_anchors_m_.col(particle) = state_.positions_m.col(particle) - pinOffset(state_.time_s);
-    inverse_mass_per_kg_[particle] = 0.0;
-    enforcePins(state_.time_s, state_);
+    inputs_.pin_anchors_m.col(pin - inputs_.pins.begin()) =
+        state_.positions_m.col(particle) - force_model_.pinOffset(state_.time_s);
+    force_model_.refreshConstraints();
+    force_model_.enforceConstraints(state_.time_s, state_);
   }
   return true;
 }

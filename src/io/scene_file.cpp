@@ -154,10 +154,12 @@ std::map<std::string, Setter> makeSetters() {
   s["grasp_damping"] = [](const YAML::Node& n, SceneOptions& o) { o.grasp_damping_N_s_per_m = readDouble(n); };
   s["integrator"] = [](const YAML::Node& n, SceneOptions& o) {
     if (!parseIntegratorName(readString(n), &o.integrator)) {
-      throw WrongType{"forward_euler, symplectic_euler, midpoint or rk4"};
+      throw WrongType{"one of " + integratorNameList()};
     }
   };
   s["substeps"] = [](const YAML::Node& n, SceneOptions& o) { o.substeps = readInt(n); };
+  s["solver_tolerance"] = [](const YAML::Node& n, SceneOptions& o) { o.solver.tolerance = readDouble(n); };
+  s["solver_max_iterations"] = [](const YAML::Node& n, SceneOptions& o) { o.solver.max_iterations = readInt(n); };
   s["frame_rate"] = [](const YAML::Node& n, SceneOptions& o) { o.frame_rate_hz = readDouble(n); };
   s["texture"] = [](const YAML::Node& n, SceneOptions& o) { o.texture = readString(n); };
   return s;

@@ -339,17 +339,17 @@ void ClothNode::onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t) {
   // The wind sliders count only when they moved: comparing them with the wind in force would undo every
   // wind that came in on ~wind (the sliders do not follow the topic) at the next reconfigure of anything.
   const Eigen::Vector3d wind(config.wind_x, config.wind_y, config.wind_z);
-  if (wind != reconfigure_wind_) {
-    options.wind.velocity_m_per_s = wind;
-    options.wind_enabled = true;
-  }
   std::string error;
   if (!core::parseIntegratorName(config.integrator, &options.integrator)) {
     error = "integrator '" + config.integrator + "' is unknown";
   }
   options.substeps = config.substeps;
+  options.solver.tolerance = config.solver_tolerance;
+  options.solver.max_iterations = config.solver_max_iterations;
   if (!error.empty() || !simulation_->retune(options, &error)) {
     ROS_WARN("cloth_node: reconfigure refused: %s", error.c_str());
+  } else if (wind != reconfigure_wind_) {
+    simulation_->setWindVelocity(wind);  // the wind is an input, not an option: retune leaves it alone
   }
   // Answer and publish what is in force (a refused change is not; a ~wind is), so the sliders follow.
   fillConfig(&config);
@@ -366,11 +366,14 @@ void ClothNode::fillConfig(cloth_sim::ClothConfig* config) const {
   c.bend_stiffness = o.springs[2].stiffness_N_per_m;
   c.bend_damping = o.springs[2].damping_N_s_per_m;
   c.air_damping = o.air_damping_N_s_per_m;
-  c.wind_x = o.wind.velocity_m_per_s.x();
-  c.wind_y = o.wind.velocity_m_per_s.y();
-  c.wind_z = o.wind.velocity_m_per_s.z();
+  const Eigen::Vector3d& wind = simulation_->inputs().wind_m_per_s;
+  c.wind_x = wind.x();
+  c.wind_y = wind.y();
+  c.wind_z = wind.z();
   c.integrator = core::integratorName(o.integrator);
   c.substeps = o.substeps;
+  c.solver_tolerance = o.solver.tolerance;
+  c.solver_max_iterations = o.solver.max_iterations;
 }
 
 void ClothNode::pushConfig() {

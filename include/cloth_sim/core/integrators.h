@@ -1,4 +1,4 @@
-// Time integration (paper §6): one interface, one class per method, named for what it is.
+// Time integration (paper §6 and its future work): one interface, one class per method, named for what it is.
 #pragma once
 
 #include "cloth_sim/core/state.h"
@@ -11,24 +11,74 @@
 
 namespace cloth_sim::core {
 
-/// The right-hand side of the ODE x' = v, v' = a(x, v, t). An implicit integrator (later) will also ask
-/// for force Jacobians; they will be added here as further virtual functions.
+/// The right-hand side of the ODE x' = v, M v' = F(x, v, t), with what an implicit method needs on top:
+/// the masses, the constrained particles and the force differential. All fields are 3 x N, world frame.
 class Dynamics {
  public:
   virtual ~Dynamics() = default;
-  /// Fills accelerations_m_per_s2 (3 x N, resized by the caller) for the given positions and velocities.
-  virtual void acceleration(const Eigen::Matrix3Xd& positions_m, const Eigen::Matrix3Xd& velocities_m_per_s,
-                            double time_s, Eigen::Matrix3Xd& accelerations_m_per_s2) const = 0;
+
+  /// Forces, N: fills forces_N (3 x N; the callee resizes it) at the given positions, velocities and time.
+  virtual void forces(const Eigen::Matrix3Xd& positions_m, const Eigen::Matrix3Xd& velocities_m_per_s, double time_s,
+                      Eigen::Matrix3Xd& forces_N) = 0;
+  /// Mass per particle, kg.
+  virtual const Eigen::VectorXd& mass_kg() const = 0;
+  /// 1 / mass per particle, 1/kg; 0 marks a constrained particle (a pin on its hook) whose motion is
+  /// prescribed by constrainedPositions rather than by its forces.
+  virtual const Eigen::VectorXd& inverseMass_per_kg() const = 0;
+  /// Writes the prescribed positions at time_s into the constrained particles' columns; others untouched.
+  virtual void constrainedPositions(double time_s, Eigen::Matrix3Xd& positions_m) const = 0;
+
+  /// Linearises the forces at (x, v, t): afterwards forceDifferential, systemProduct and
+  /// systemDiagonalBlocks use dF/dx and dF/dv taken there.
+  virtual void linearize(const Eigen::Matrix3Xd& positions_m, const Eigen::Matrix3Xd& velocities_m_per_s,
+                         double time_s) = 0;
+  /// df = dF/dx dx + dF/dv dv, N, matrix-free (3 x N each).
+  virtual void forceDifferential(const Eigen::Matrix3Xd& dx_m, const Eigen::Matrix3Xd& dv_m_per_s,
+                                 Eigen::Matrix3Xd& df_N) = 0;
+  /// out = (M - h dF/dv - h^2 dF/dx) w: the backward Euler system matrix times w. The default goes
+  /// through forceDifferential; a model may fuse it.
+  virtual void systemProduct(double step_s, const Eigen::Matrix3Xd& w, Eigen::Matrix3Xd& out);
+  /// The 3x3 diagonal blocks of that matrix, one column per particle: xx, yy, zz, xy, xz, yz.
+  virtual void systemDiagonalBlocks(double step_s, Eigen::Matrix<double, 6, Eigen::Dynamic>& blocks) = 0;
+
+  /// Accelerations, m/s^2: forces times inverse mass (so 0 for constrained particles).
+  void acceleration(const Eigen::Matrix3Xd& positions_m, const Eigen::Matrix3Xd& velocities_m_per_s, double time_s,
+                    Eigen::Matrix3Xd& accelerations_m_per_s2);
+
+ private:
+  Eigen::Matrix3Xd differential_scratch_, scaled_scratch_;
 };
 
-enum class IntegratorKind { kForwardEuler, kSymplecticEuler, kMidpoint, kRK4 };
+/// What one step did.
+struct StepReport {
+  int force_evaluations = 0;  ///< calls of Dynamics::forces
+  int solver_iterations = 0;  ///< conjugate-gradient iterations (implicit methods; 0 for explicit ones)
+  double residual = 0.0;      ///< relative residual of the linear solve at exit (0 for explicit methods)
+  bool converged = true;      ///< false: the solve stopped at its iteration cap above its tolerance
+  StepReport& operator+=(const StepReport& other);
+};
 
-/// All kinds, in order of cost.
+enum class IntegratorKind { kForwardEuler, kSymplecticEuler, kMidpoint, kRK4, kImplicitEuler };
+
+/// All kinds: the explicit ones in order of cost, then implicit Euler.
 const std::vector<IntegratorKind>& allIntegratorKinds();
-/// "forward_euler", "symplectic_euler", "midpoint", "rk4": the names used in scenes and parameters.
+/// "forward_euler", "symplectic_euler", "midpoint", "rk4", "implicit_euler": the names used in scenes and
+/// parameters.
 const char* integratorName(IntegratorKind kind);
 /// Parses a name above; false if unknown.
 bool parseIntegratorName(const std::string& name, IntegratorKind* kind);
+/// The names above joined with ", " (for error messages and docs).
+std::string integratorNameList();
+
+/// How hard the implicit solver works per step (conjugate gradients on the backward Euler system).
+struct SolverOptions {
+  /// Stop when the residual, in the preconditioner's norm, falls below this fraction of the right-hand
+  /// side's (or of the first residual's, if larger).
+  double tolerance = 1e-3;
+  /// Stop after this many iterations even above the tolerance; the step is still taken (reported as not
+  /// converged): a truncated CG solution damps the stiff modes first, so it stays stable.
+  int max_iterations = 100;
+};
 
 /// Advances positions, velocities and time by one step h. Holds its own scratch, so one instance per
 /// simulation; step() allocates only when the particle count changes.
@@ -36,9 +86,9 @@ class Integrator {
  public:
   virtual ~Integrator() = default;
   virtual IntegratorKind kind() const = 0;
-  /// Order of the global error (1, 1, 2, 4).
+  /// Order of the global error (1, 1, 2, 4, 1).
   virtual int order() const = 0;
-  virtual void step(const Dynamics& dynamics, double step_s, ClothState& state) = 0;
+  virtual StepReport step(Dynamics& dynamics, double step_s, ClothState& state) = 0;
 };
 
 /// Forward (explicit) Euler: x1 = x0 + h v0, v1 = v0 + h a(x0, v0). Gains energy on any undamped spring.
@@ -46,7 +96,7 @@ class ForwardEuler final : public Integrator {
  public:
   IntegratorKind kind() const override { return IntegratorKind::kForwardEuler; }
   int order() const override { return 1; }
-  void step(const Dynamics& dynamics, double step_s, ClothState& state) override;
+  StepReport step(Dynamics& dynamics, double step_s, ClothState& state) override;
 
  private:
   Eigen::Matrix3Xd acceleration_;
@@ -57,7 +107,7 @@ class SymplecticEuler final : public Integrator {
  public:
   IntegratorKind kind() const override { return IntegratorKind::kSymplecticEuler; }
   int order() const override { return 1; }
-  void step(const Dynamics& dynamics, double step_s, ClothState& state) override;
+  StepReport step(Dynamics& dynamics, double step_s, ClothState& state) override;
 
  private:
   Eigen::Matrix3Xd acceleration_;
@@ -68,7 +118,7 @@ class Midpoint final : public Integrator {
  public:
   IntegratorKind kind() const override { return IntegratorKind::kMidpoint; }
   int order() const override { return 2; }
-  void step(const Dynamics& dynamics, double step_s, ClothState& state) override;
+  StepReport step(Dynamics& dynamics, double step_s, ClothState& state) override;
 
  private:
   Eigen::Matrix3Xd acceleration_, half_positions_, half_velocities_;
@@ -79,13 +129,40 @@ class RK4 final : public Integrator {
  public:
   IntegratorKind kind() const override { return IntegratorKind::kRK4; }
   int order() const override { return 4; }
-  void step(const Dynamics& dynamics, double step_s, ClothState& state) override;
+  StepReport step(Dynamics& dynamics, double step_s, ClothState& state) override;
 
  private:
   Eigen::Matrix3Xd stage_positions_, stage_velocities_, stage_acceleration_;
   Eigen::Matrix3Xd sum_position_rates_, sum_velocity_rates_;
 };
 
-std::unique_ptr<Integrator> makeIntegrator(IntegratorKind kind);
+/// Backward Euler linearised once per step (Baraff and Witkin 1998, "Large Steps in Cloth Simulation"):
+///   (M - h dF/dv - h^2 dF/dx) dv = h (F0 + h dF/dx v0),  v1 = v0 + dv,  x1 = x0 + h v1,
+/// solved matrix-free by conjugate gradients with a block-Jacobi (3x3 per particle) preconditioner and
+/// Baraff and Witkin's constraint filter: a constrained particle's dv is fixed so that it lands exactly
+/// where Dynamics::constrainedPositions puts it at t + h (pins, moving pins, hooked pins), and its rows
+/// are filtered out of every residual and search direction. The solve starts from explicit Euler's dv
+/// (h F0 / m), which depends on the state alone, so a restored snapshot re-runs bit for bit.
+/// Unconditionally stable on the linearised system; it damps, so energy never grows without forcing.
+/// First order.
+class ImplicitEuler final : public Integrator {
+ public:
+  explicit ImplicitEuler(const SolverOptions& options = SolverOptions()) : options_(options) {}
+  IntegratorKind kind() const override { return IntegratorKind::kImplicitEuler; }
+  int order() const override { return 1; }
+  StepReport step(Dynamics& dynamics, double step_s, ClothState& state) override;
+  void setOptions(const SolverOptions& options) { options_ = options; }
+
+ private:
+  /// out = P^-1 r with the inverted 3x3 diagonal blocks, zero on constrained particles.
+  void precondition(const Eigen::Matrix3Xd& r, Eigen::Matrix3Xd& out) const;
+
+  SolverOptions options_;
+  Eigen::Matrix3Xd forces_, rhs_, dv_, residual_, direction_, product_, preconditioned_, prescribed_;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> blocks_;  ///< inverted diagonal blocks, xx yy zz xy xz yz
+  Eigen::VectorXd free_;                             ///< 1 for a free particle, 0 for a constrained one
+};
+
+std::unique_ptr<Integrator> makeIntegrator(IntegratorKind kind, const SolverOptions& solver = SolverOptions());
 
 }  // namespace cloth_sim::core

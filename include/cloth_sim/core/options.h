@@ -34,6 +34,8 @@ struct OptionLimits {
   static constexpr double kMaxGustAmplitude = 10.0;          ///< relative to the mean wind
   static constexpr double kMaxContactDepth_m = 1.0;
   static constexpr double kMaxFriction = 10.0;
+  static constexpr double kMinSolverTolerance = 1e-14;  ///< below rounding the solve cannot converge
+  static constexpr int kMaxSolverIterations = 10000;
 };
 
 struct SceneOptions {
@@ -72,6 +74,7 @@ struct SceneOptions {
 
   IntegratorKind integrator = IntegratorKind::kSymplecticEuler;
   int substeps = 40;            ///< per frame
+  SolverOptions solver;         ///< implicit_euler's linear solve: tolerance and iteration cap per step
   double frame_rate_hz = 50.0;  ///< frames per simulated second; one frame = 1 / frame_rate_hz s
 
   /// Texture image (PNG/JPEG path) sampled per vertex; empty: the built-in checker pattern.

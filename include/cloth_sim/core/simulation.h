@@ -3,10 +3,13 @@
 #pragma once
 
 #include "cloth_sim/core/contact.h"
+#include "cloth_sim/core/force_model.h"
 #include "cloth_sim/core/forces.h"
 #include "cloth_sim/core/grid.h"
+#include "cloth_sim/core/inputs.h"
 #include "cloth_sim/core/integrators.h"
 #include "cloth_sim/core/options.h"
+#include "cloth_sim/core/stability_guard.h"
 #include "cloth_sim/core/state.h"
 
 #include <Eigen/Core>
@@ -39,14 +42,16 @@ struct FrameReport {
                           ///< back (the state is the previous one)
   std::string reason;     ///< why it is not OK: empty, a warning (recomputed, over-stretched), or the divergence
   int substeps_used = 0;  ///< substeps of the accepted (or last tried) computation of the frame
+  bool recomputed = false;  ///< the guard recomputed the frame with more substeps than the scene's
   ContactStats contacts;  ///< summed over the frame's substeps
+  StepReport steps;       ///< the integrator's work summed over the accepted computation's substeps
   double max_strain = 0.0;  ///< largest structural stretch (|d| - L) / L after the frame
 };
 
 class Simulation {
  public:
   /// A state further than this from the origin (m) counts as diverged.
-  static constexpr double kDivergenceBound_m = 1000.0;
+  static constexpr double kDivergenceBound_m = StabilityGuard::kDivergenceBound_m;
   /// Structural stretch above this is reported as a warning (the cloth is over-stretched).
   static constexpr double kStrainWarning = 0.5;
   /// A grasp target further than this from the origin (m) is refused.
@@ -55,7 +60,7 @@ class Simulation {
   /// Most grasps held at once; each costs work in every force evaluation.
   static constexpr std::size_t kMaxGrasps = 16;
   /// A diverged frame is recomputed with 2x, 4x, ... 2^kGuardDoublings x the substeps before it is rolled back.
-  static constexpr int kGuardDoublings = 3;
+  static constexpr int kGuardDoublings = StabilityGuard::kDefaultDoublings;
 
   /// options must have passed validateSceneOptions; throws std::invalid_argument otherwise.
   explicit Simulation(const SceneOptions& options);
@@ -66,7 +71,11 @@ class Simulation {
   const SceneOptions& options() const { return options_; }
   const ClothGrid& grid() const { return grid_; }
   const ClothState& state() const { return state_; }
-  const std::vector<int>& pinnedParticles() const { return pinned_; }
+  const std::vector<int>& pinnedParticles() const { return inputs_.pins; }
+  /// Grasps, pin hooks and wind in force: with options() and state() a complete snapshot.
+  const ClothInputs& inputs() const { return inputs_; }
+  /// The right-hand side the integrator steps (forces, differential, constraints).
+  ClothForceModel& forceModel() { return force_model_; }
   const Eigen::VectorXd& massPerParticle_kg() const { return mass_kg_; }
 
   /// Advances one frame (options().frameDuration_s()) in options().substeps substeps. A frame that
@@ -83,7 +92,8 @@ class Simulation {
   /// unchanged) and validate. The state carries on. False with *error otherwise, options unchanged.
   bool retune(const SceneOptions& options, std::string* error);
 
-  /// Sets the mean wind velocity (world frame, m/s) and switches wind on.
+  /// Sets the mean wind velocity in force (an input: world frame, m/s) and switches wind on. retune and
+  /// reset leave the wind in force alone; options().wind.velocity_m_per_s is only the scene's initial wind.
   void setWindVelocity(const Eigen::Vector3d& wind_m_per_s);
 
   /// Starts a grasp, or moves the target of an existing one with the same id (the held particle stays).
@@ -92,7 +102,7 @@ class Simulation {
   bool grab(const GraspRequest& request, std::string* error);
   /// Lets go; a pin no other grasp holds is hooked again where it was let go. False if no grasp has that id.
   bool release(std::uint32_t id);
-  const std::vector<Grasp>& grasps() const { return grasps_; }
+  const std::vector<Grasp>& grasps() const { return inputs_.grasps; }
 
   /// Sphere centres at the current time, world frame (for tf).
   std::vector<Eigen::Vector3d> sphereCenters() const;
@@ -106,29 +116,22 @@ class Simulation {
   double maxStructuralStrain() const;
 
  private:
-  class ClothDynamics;
-
-  /// Runs one frame in the given number of substeps from the current state.
-  ContactStats integrateFrame(int substeps);
-  /// Where the pins' motion has taken them at time_s, relative to their anchors, m.
-  Eigen::Vector3d pinOffset(double time_s) const;
-  void enforcePins(double time_s, ClothState& state) const;
+  /// Runs one frame in the given number of substeps from the current state; adds the integrator's work
+  /// to *steps.
+  ContactStats integrateFrame(int substeps, StepReport* steps);
   int nearestParticle(const Eigen::Vector3d& point_m) const;
 
   SceneOptions options_;
   ClothGrid grid_;
-  std::vector<int> pinned_;
   Eigen::VectorXd mass_kg_;
-  Eigen::VectorXd inverse_mass_per_kg_;  ///< 0 for pinned particles (on their hook)
-  Eigen::Matrix3Xd pin_anchors_m_;       ///< where each pin hangs before pin motion; the rest position until
-                                         ///< a released grasp re-hooks it elsewhere
+  ClothInputs inputs_;
+  ClothForceModel force_model_;  ///< reads options_, grid_, mass_kg_ and inputs_ (declared before it)
+  StabilityGuard guard_;
   ClothState state_;
   ClothState frame_start_;               ///< rollback point, scratch
   Eigen::Matrix3Xd substep_start_positions_m_;  ///< scratch for the contact sweep
-  std::vector<Grasp> grasps_;
   Eigen::Matrix3Xf colors_;
   std::unique_ptr<Integrator> integrator_;
-  std::unique_ptr<ClothDynamics> dynamics_;
 };
 
 /// The built-in texture: a two-colour checker of 8 x 8 squares over uv, RGB in [0, 1].

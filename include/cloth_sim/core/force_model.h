@@ -1,0 +1,85 @@
+// The cloth's right-hand side as a standalone object: built from the grid, the scene's physics options,
+// the masses and the inputs (grasps, pin hooks, wind), it gives the forces and their differential that
+// the integrators ask for, and owns the constraints (pins on hooks) that the implicit solver filters.
+// The springs run through the stencil kernels (stencil.h) on structure-of-arrays copies of the fields,
+// on all cores above kParallelThreshold particles; every value is computed by one thread in a fixed
+// order, so the results are bit-identical whatever the thread count.
+#pragma once
+
+#include "cloth_sim/core/grid.h"
+#include "cloth_sim/core/inputs.h"
+#include "cloth_sim/core/integrators.h"
+#include "cloth_sim/core/options.h"
+#include "cloth_sim/core/stencil.h"
+
+#include <Eigen/Core>
+
+#include <array>
+#include <cstddef>
+
+namespace cloth_sim::core {
+
+class ClothForceModel final : public Dynamics {
+ public:
+  /// Particles from which the kernels run on all cores; below it a thread's start-up costs more than
+  /// its share of the work (measured with cloth_bench, doc/BENCHMARKS.md).
+  static constexpr int kParallelThreshold = 4096;
+
+  /// Keeps references: grid, options, masses and inputs must outlive the model. Options and inputs may
+  /// change between calls (live tuning, grasps); call refreshConstraints after pins or grasps change.
+  ClothForceModel(const ClothGrid& grid, const SceneOptions& options, const Eigen::VectorXd& mass_kg,
+                  const ClothInputs& inputs);
+
+  /// Recomputes which particles are constrained: a pin is on its hook unless a grasp holds it.
+  void refreshConstraints();
+  /// Puts every hooked pin where its hook and the pins' motion place it at time_s, with the motion's
+  /// velocity.
+  void enforceConstraints(double time_s, ClothState& state) const;
+  /// Where the pins' motion has taken them at time_s, relative to their hooks, m.
+  Eigen::Vector3d pinOffset(double time_s) const;
+
+  void forces(const Eigen::Matrix3Xd& positions_m, const Eigen::Matrix3Xd& velocities_m_per_s, double time_s,
+              Eigen::Matrix3Xd& forces_N) override;
+  const Eigen::VectorXd& mass_kg() const override { return mass_kg_; }
+  const Eigen::VectorXd& inverseMass_per_kg() const override { return inverse_mass_per_kg_; }
+  void constrainedPositions(double time_s, Eigen::Matrix3Xd& positions_m) const override;
+  /// dF/dx and dF/dv of the springs, air damping and grasps; the wind's differential is left out (wind
+  /// is weak and acts explicitly, through F0).
+  void linearize(const Eigen::Matrix3Xd& positions_m, const Eigen::Matrix3Xd& velocities_m_per_s,
+                 double time_s) override;
+  void forceDifferential(const Eigen::Matrix3Xd& dx_m, const Eigen::Matrix3Xd& dv_m_per_s,
+                         Eigen::Matrix3Xd& df_N) override;
+  void systemProduct(double step_s, const Eigen::Matrix3Xd& w, Eigen::Matrix3Xd& out) override;
+  void systemDiagonalBlocks(double step_s, Eigen::Matrix<double, 6, Eigen::Dynamic>& blocks) override;
+
+  /// Springs one force evaluation computes (of the switched-on kinds).
+  std::size_t springCount() const;
+  /// Threads a force evaluation of this grid uses.
+  int threadCount() const;
+
+ private:
+  /// Column-major N x 3: each coordinate contiguous (structure of arrays).
+  using SoaField = Eigen::Matrix<double, Eigen::Dynamic, 3>;
+
+  std::array<StencilFamily, kStencilFamilies.size()> families() const;
+  bool parallel() const { return grid_.particleCount() >= kParallelThreshold; }
+  /// Spring differential of every switched-on family: out = springs' dF for (scale_x dx, scale_v dv).
+  void springDifferential(const SoaField& dx, double scale_x, const SoaField& dv, double scale_v, SoaField& out);
+
+  const ClothGrid& grid_;
+  const SceneOptions& options_;
+  const Eigen::VectorXd& mass_kg_;
+  const ClothInputs& inputs_;
+  Eigen::VectorXd inverse_mass_per_kg_;  ///< 0 on hooked pins
+  std::array<double, kStencilFamilies.size()> rest_length_m_{};  ///< per family, from the rest grid
+
+  // Scratch, reused across calls (sized on first use).
+  SoaField positions_, velocities_, result_, dx_, dv_;
+  Eigen::Matrix<double, Eigen::Dynamic, 6> slots_;   ///< per-spring values, shifted by the family offset
+  Eigen::Matrix<double, Eigen::Dynamic, 6> block_sums_;
+  // The linearisation (written by linearize).
+  SoaField linearized_positions_;
+  std::array<Eigen::VectorXd, kStencilFamilies.size()> inverse_length_, transverse_stiffness_;
+};
+
+}  // namespace cloth_sim::core

@@ -1,0 +1,263 @@
+#include "cloth_sim/core/force_model.h"
+
+#include "cloth_sim/core/constants.h"
+
+#include <algorithm>
+#include <cmath>
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+namespace cloth_sim::core {
+
+namespace {
+
+/// The rows [begin, end) this thread works on inside a parallel region (all rows outside one).
+struct RowBand {
+  int begin = 0;
+  int end = 0;
+};
+
+RowBand threadBand(int rows) {
+#ifdef _OPENMP
+  const int threads = omp_get_num_threads();
+  const int thread = omp_get_thread_num();
+#else
+  const int threads = 1;
+  const int thread = 0;
+#endif
+  return {static_cast<int>(static_cast<long>(rows) * thread / threads),
+          static_cast<int>(static_cast<long>(rows) * (thread + 1) / threads)};
+}
+
+template <typename SoaField>
+ConstField constView(const SoaField& field) {
+  return {field.col(0).data(), field.col(1).data(), field.col(2).data()};
+}
+
+template <typename SoaField>
+Field view(SoaField& field) {
+  return {field.col(0).data(), field.col(1).data(), field.col(2).data()};
+}
+
+/// Largest family offset on a grid with `cols` columns: the slot buffers are this much longer than N.
+int maxOffset(int cols) { return 2 * cols; }
+
+}  // namespace
+
+ClothForceModel::ClothForceModel(const ClothGrid& grid, const SceneOptions& options, const Eigen::VectorXd& mass_kg,
+                                 const ClothInputs& inputs)
+    : grid_(grid), options_(options), mass_kg_(mass_kg), inputs_(inputs) {
+  for (std::size_t f = 0; f < kStencilFamilies.size(); ++f) {
+    const StencilFamilyLayout& layout = kStencilFamilies[f];
+    const int first = grid_.index(0, std::max(0, -layout.dc));
+    const int second = grid_.index(layout.dr, std::max(0, -layout.dc) + layout.dc);
+    const bool exists = layout.dr < grid_.rows && std::max(0, layout.dc) < grid_.cols;
+    rest_length_m_[f] =
+        exists ? (grid_.rest_positions_m.col(second) - grid_.rest_positions_m.col(first)).norm() : 0.0;
+  }
+  refreshConstraints();
+}
+
+std::array<StencilFamily, kStencilFamilies.size()> ClothForceModel::families() const {
+  std::array<StencilFamily, kStencilFamilies.size()> out;
+  for (std::size_t f = 0; f < kStencilFamilies.size(); ++f) {
+    const SpringOptions& spring = options_.springs[kStencilFamilies[f].kind];
+    out[f] = {kStencilFamilies[f].dr, kStencilFamilies[f].dc, rest_length_m_[f],
+              spring.enabled ? spring.stiffness_N_per_m : 0.0, spring.enabled ? spring.damping_N_s_per_m : 0.0};
+  }
+  return out;
+}
+
+void ClothForceModel::refreshConstraints() {
+  inverse_mass_per_kg_ = mass_kg_.cwiseInverse();
+  for (int pin : inputs_.pins) {
+    if (!inputs_.isGrasped(pin)) inverse_mass_per_kg_[pin] = 0.0;
+  }
+}
+
+Eigen::Vector3d ClothForceModel::pinOffset(double time_s) const {
+  return options_.pin_motion_amplitude_m * std::sin(kTwoPi * time_s / options_.pin_motion_period_s);
+}
+
+void ClothForceModel::constrainedPositions(double time_s, Eigen::Matrix3Xd& positions_m) const {
+  const Eigen::Vector3d offset_m = pinOffset(time_s);
+  for (std::size_t p = 0; p < inputs_.pins.size(); ++p) {
+    const int i = inputs_.pins[p];
+    if (inverse_mass_per_kg_[i] == 0.0) positions_m.col(i) = inputs_.pin_anchors_m.col(p) + offset_m;
+  }
+}
+
+void ClothForceModel::enforceConstraints(double time_s, ClothState& state) const {
+  constrainedPositions(time_s, state.positions_m);
+  const double angular_rate = kTwoPi / options_.pin_motion_period_s;
+  const Eigen::Vector3d velocity_m_per_s =
+      options_.pin_motion_amplitude_m * angular_rate * std::cos(angular_rate * time_s);
+  for (int i : inputs_.pins) {
+    if (inverse_mass_per_kg_[i] == 0.0) state.velocities_m_per_s.col(i) = velocity_m_per_s;
+  }
+}
+
+std::size_t ClothForceModel::springCount() const {
+  std::size_t count = 0;
+  for (int k = 0; k < kSpringKindCount; ++k) {
+    if (options_.springs[k].enabled) count += grid_.springs[k].size();
+  }
+  return count;
+}
+
+int ClothForceModel::threadCount() const {
+#ifdef _OPENMP
+  return parallel() ? omp_get_max_threads() : 1;
+#else
+  return 1;
+#endif
+}
+
+void ClothForceModel::forces(const Eigen::Matrix3Xd& positions_m, const Eigen::Matrix3Xd& velocities_m_per_s,
+                             double time_s, Eigen::Matrix3Xd& forces_N) {
+  const int rows = grid_.rows;
+  const int cols = grid_.cols;
+  const Eigen::Index count = positions_m.cols();
+  positions_ = positions_m.transpose();
+  velocities_ = velocities_m_per_s.transpose();
+  result_.setZero(count, 3);
+  slots_.resize(count + maxOffset(cols), 6);
+  const auto springs = families();
+  double* const slot_arrays[3] = {slots_.col(0).data(), slots_.col(1).data(), slots_.col(2).data()};
+  double* const result_arrays[3] = {result_.col(0).data(), result_.col(1).data(), result_.col(2).data()};
+#pragma omp parallel if (parallel())
+  {
+    const RowBand band = threadBand(rows);
+    for (const StencilFamily& family : springs) {
+      if (family.stiffness_N_per_m == 0.0 && family.damping_N_s_per_m == 0.0) continue;
+      stencilSpringForces(rows, cols, family, constView(positions_), constView(velocities_),
+                          {slot_arrays[0], slot_arrays[1], slot_arrays[2]}, band.begin, band.end);
+#pragma omp barrier
+      stencilGather(family.offset(cols), slot_arrays, result_arrays, 3, -1.0,
+                    static_cast<std::ptrdiff_t>(band.begin) * cols, static_cast<std::ptrdiff_t>(band.end) * cols);
+#pragma omp barrier
+    }
+  }
+  forces_N = result_.transpose();
+  const SceneOptions& o = options_;
+  if (!o.gravity_m_per_s2.isZero()) accumulateGravity(mass_kg_, o.gravity_m_per_s2, forces_N);
+  if (o.air_damping_N_s_per_m > 0.0) accumulateAirDamping(o.air_damping_N_s_per_m, velocities_m_per_s, forces_N);
+  if (o.wind_enabled) {
+    WindOptions wind = o.wind;
+    wind.velocity_m_per_s = inputs_.wind_m_per_s;
+    accumulateWindForces(grid_.triangles, wind, windVelocityAt(wind, time_s), positions_m, velocities_m_per_s,
+                         forces_N);
+  }
+  if (!inputs_.grasps.empty()) accumulateGraspForces(inputs_.grasps, positions_m, velocities_m_per_s, forces_N);
+}
+
+void ClothForceModel::linearize(const Eigen::Matrix3Xd& positions_m, const Eigen::Matrix3Xd&, double) {
+  const int rows = grid_.rows;
+  const int cols = grid_.cols;
+  const Eigen::Index count = positions_m.cols();
+  linearized_positions_ = positions_m.transpose();
+  const auto springs = families();
+  for (std::size_t f = 0; f < springs.size(); ++f) {
+    inverse_length_[f].resize(count);
+    transverse_stiffness_[f].resize(count);
+  }
+#pragma omp parallel if (parallel())
+  {
+    const RowBand band = threadBand(rows);
+    for (std::size_t f = 0; f < springs.size(); ++f) {
+      stencilLinearize(rows, cols, springs[f], constView(linearized_positions_), inverse_length_[f].data(),
+                       transverse_stiffness_[f].data(), band.begin, band.end);
+    }
+  }
+}
+
+void ClothForceModel::springDifferential(const SoaField& dx, double scale_x, const SoaField& dv, double scale_v,
+                                         SoaField& out) {
+  const int rows = grid_.rows;
+  const int cols = grid_.cols;
+  const Eigen::Index count = dx.rows();
+  out.setZero(count, 3);
+  slots_.resize(count + maxOffset(cols), 6);
+  const auto springs = families();
+  double* const slot_arrays[3] = {slots_.col(0).data(), slots_.col(1).data(), slots_.col(2).data()};
+  double* const out_arrays[3] = {out.col(0).data(), out.col(1).data(), out.col(2).data()};
+#pragma omp parallel if (parallel())
+  {
+    const RowBand band = threadBand(rows);
+    for (std::size_t f = 0; f < springs.size(); ++f) {
+      const StencilFamily& family = springs[f];
+      if (family.stiffness_N_per_m == 0.0 && family.damping_N_s_per_m == 0.0) continue;
+      stencilSpringDifferential(rows, cols, family, constView(linearized_positions_), inverse_length_[f].data(),
+                                transverse_stiffness_[f].data(), constView(dx), scale_x, constView(dv), scale_v,
+                                {slot_arrays[0], slot_arrays[1], slot_arrays[2]}, band.begin, band.end);
+#pragma omp barrier
+      stencilGather(family.offset(cols), slot_arrays, out_arrays, 3, -1.0,
+                    static_cast<std::ptrdiff_t>(band.begin) * cols, static_cast<std::ptrdiff_t>(band.end) * cols);
+#pragma omp barrier
+    }
+  }
+}
+
+void ClothForceModel::forceDifferential(const Eigen::Matrix3Xd& dx_m, const Eigen::Matrix3Xd& dv_m_per_s,
+                                        Eigen::Matrix3Xd& df_N) {
+  dx_ = dx_m.transpose();
+  dv_ = dv_m_per_s.transpose();
+  springDifferential(dx_, 1.0, dv_, 1.0, result_);
+  df_N = result_.transpose();
+  df_N -= options_.air_damping_N_s_per_m * dv_m_per_s;
+  for (const Grasp& grasp : inputs_.grasps) {
+    df_N.col(grasp.particle) -=
+        grasp.stiffness_N_per_m * dx_m.col(grasp.particle) + grasp.damping_N_s_per_m * dv_m_per_s.col(grasp.particle);
+  }
+}
+
+void ClothForceModel::systemProduct(double step_s, const Eigen::Matrix3Xd& w, Eigen::Matrix3Xd& out) {
+  const double h = step_s;
+  dx_ = w.transpose();
+  springDifferential(dx_, h * h, dx_, h, result_);
+  // (M + h c_air) w - springs' dF; the grasps' springs and dampers join on their particles' diagonal.
+  out = w * (mass_kg_.array() + h * options_.air_damping_N_s_per_m).matrix().asDiagonal();
+  out -= result_.transpose();
+  for (const Grasp& grasp : inputs_.grasps) {
+    out.col(grasp.particle) += (h * h * grasp.stiffness_N_per_m + h * grasp.damping_N_s_per_m) * w.col(grasp.particle);
+  }
+}
+
+void ClothForceModel::systemDiagonalBlocks(double step_s, Eigen::Matrix<double, 6, Eigen::Dynamic>& blocks) {
+  const double h = step_s;
+  const int rows = grid_.rows;
+  const int cols = grid_.cols;
+  const Eigen::Index count = grid_.particleCount();
+  slots_.resize(count + maxOffset(cols), 6);
+  block_sums_.setZero(count, 6);
+  const auto springs = families();
+  std::array<double*, 6> slot_arrays;
+  double* sum_arrays[6];
+  for (int e = 0; e < 6; ++e) {
+    slot_arrays[e] = slots_.col(e).data();
+    sum_arrays[e] = block_sums_.col(e).data();
+  }
+#pragma omp parallel if (parallel())
+  {
+    const RowBand band = threadBand(rows);
+    for (std::size_t f = 0; f < springs.size(); ++f) {
+      const StencilFamily& family = springs[f];
+      if (family.stiffness_N_per_m == 0.0 && family.damping_N_s_per_m == 0.0) continue;
+      stencilSpringBlocks(rows, cols, family, constView(linearized_positions_), inverse_length_[f].data(),
+                          transverse_stiffness_[f].data(), h * h, h, slot_arrays, band.begin, band.end);
+#pragma omp barrier
+      stencilGather(family.offset(cols), slot_arrays.data(), sum_arrays, 6, 1.0,
+                    static_cast<std::ptrdiff_t>(band.begin) * cols, static_cast<std::ptrdiff_t>(band.end) * cols);
+#pragma omp barrier
+    }
+  }
+  blocks = block_sums_.transpose();
+  blocks.topRows<3>().rowwise() += (mass_kg_.array() + h * options_.air_damping_N_s_per_m).matrix().transpose();
+  for (const Grasp& grasp : inputs_.grasps) {
+    blocks.col(grasp.particle).head<3>().array() += h * h * grasp.stiffness_N_per_m + h * grasp.damping_N_s_per_m;
+  }
+}
+
+}  // namespace cloth_sim::core
