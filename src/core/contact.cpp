@@ -12,6 +12,8 @@ namespace {
 
 /// Below this a direction is undefined, m; a particle at a sphere's centre is pushed out along +z.
 constexpr double kTinyLength_m = 1e-12;
+/// Two unit face normals of an axis-aligned box are the same face when their cosine exceeds this.
+constexpr double kSameFaceCosine = 0.5;
 
 /// Where a particle stood against one collider at the start and end of a substep.
 enum class Crossing { kNone, kSwept, kPenetrated };
@@ -171,7 +173,12 @@ void resolveSphere(const SphereCollider& sphere, const ContactOptions& options, 
     if (crossing == Crossing::kNone && end_distance > options.depth_m) continue;
 
     Eigen::Vector3d normal;
-    if (crossing == Crossing::kSwept) {
+    // A particle that went in but not past the centre, on the side it came from, is pushed out to the
+    // nearest surface point like a penetration, keeping its motion along the surface (a cloth sliding
+    // over the ball in large implicit steps). Only one that tunnelled through, or reached the far half,
+    // goes back to where it first met the surface.
+    const bool near_side = !tunnelled && end.dot(start) > 0.0;
+    if (crossing == Crossing::kSwept && !near_side) {
       // Put it back where it first met the surface, in the sphere's frame, so it cannot come out the far side
       // (a particle that started in the band below the surface meets it at s = 0, where it stood).
       const Eigen::Vector3d entry = start + sphereEntry(start, end - start, radius) * (end - start);
@@ -206,14 +213,22 @@ void resolveBox(const BoxCollider& box, const ContactOptions& options, const Eig
     if (crossedFromBand(box, options.depth_m, start_distance, end_distance, start, end)) crossing = Crossing::kSwept;
     if (crossing == Crossing::kNone && end_distance > options.depth_m) continue;
 
-    if (crossing == Crossing::kSwept && entered) {
+    // A swept particle that still lies nearest the face it came through (entered through, or started on)
+    // is pushed straight back out of that face, keeping its motion along it: a cloth settling on a
+    // table or sliding down its side in large steps. Through and out, or nearer another face: back to
+    // where it entered, or onto the face where it stood.
+    const Eigen::Vector3d swept_normal = entered ? entry_normal : boxNormal(box, start);
+    const bool near_swept_face =
+        end_distance < 0.0 && boxNormal(box, end).dot(swept_normal) > kSameFaceCosine;
+    if (crossing == Crossing::kSwept && near_swept_face) {
+      respond(swept_normal, still, options, velocities.col(i));
+      positions.col(i) = end - end_distance * swept_normal;
+    } else if (crossing == Crossing::kSwept && entered) {
       respond(entry_normal, still, options, velocities.col(i));
       positions.col(i) = start + entry * (end - start);
     } else if (crossing == Crossing::kSwept) {
-      // Started in the band just under a face and went deep: back onto that face, where it stood.
-      const Eigen::Vector3d normal = boxNormal(box, start);
-      respond(normal, still, options, velocities.col(i));
-      positions.col(i) = start - start_distance * normal;
+      respond(swept_normal, still, options, velocities.col(i));
+      positions.col(i) = start - start_distance * swept_normal;
     } else {
       const Eigen::Vector3d normal = boxNormal(box, end);
       const bool approaching = respond(normal, still, options, velocities.col(i));

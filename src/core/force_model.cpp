@@ -41,9 +41,6 @@ Field view(SoaField& field) {
   return {field.col(0).data(), field.col(1).data(), field.col(2).data()};
 }
 
-/// Largest family offset on a grid with `cols` columns: the slot buffers are this much longer than N.
-int maxOffset(int cols) { return 2 * cols; }
-
 }  // namespace
 
 ClothForceModel::ClothForceModel(const ClothGrid& grid, const SceneOptions& options, const Eigen::VectorXd& mass_kg,
@@ -60,14 +57,32 @@ ClothForceModel::ClothForceModel(const ClothGrid& grid, const SceneOptions& opti
   refreshConstraints();
 }
 
-std::array<StencilFamily, kStencilFamilies.size()> ClothForceModel::families() const {
-  std::array<StencilFamily, kStencilFamilies.size()> out;
+ClothForceModel::ActiveFamilies ClothForceModel::activeFamilies() const {
+  ActiveFamilies active;
   for (std::size_t f = 0; f < kStencilFamilies.size(); ++f) {
     const SpringOptions& spring = options_.springs[kStencilFamilies[f].kind];
-    out[f] = {kStencilFamilies[f].dr, kStencilFamilies[f].dc, rest_length_m_[f],
-              spring.enabled ? spring.stiffness_N_per_m : 0.0, spring.enabled ? spring.damping_N_s_per_m : 0.0};
+    if (!spring.enabled || (spring.stiffness_N_per_m == 0.0 && spring.damping_N_s_per_m == 0.0)) continue;
+    active.family[active.count++] = {kStencilFamilies[f].dr, kStencilFamilies[f].dc, rest_length_m_[f],
+                                     spring.stiffness_N_per_m, spring.damping_N_s_per_m};
   }
-  return out;
+  return active;
+}
+
+void ClothForceModel::prepareRowScratch(int arrays) {
+#ifdef _OPENMP
+  const int threads = parallel() ? omp_get_max_threads() : 1;
+#else
+  const int threads = 1;
+#endif
+  row_scratch_.resize(static_cast<Eigen::Index>(arrays) * grid_.cols, threads);
+}
+
+double* ClothForceModel::threadRowScratch() {
+#ifdef _OPENMP
+  return row_scratch_.col(omp_get_thread_num()).data();
+#else
+  return row_scratch_.data();
+#endif
 }
 
 void ClothForceModel::refreshConstraints() {
@@ -119,26 +134,16 @@ void ClothForceModel::forces(const Eigen::Matrix3Xd& positions_m, const Eigen::M
                              double time_s, Eigen::Matrix3Xd& forces_N) {
   const int rows = grid_.rows;
   const int cols = grid_.cols;
-  const Eigen::Index count = positions_m.cols();
   positions_ = positions_m.transpose();
   velocities_ = velocities_m_per_s.transpose();
-  result_.setZero(count, 3);
-  slots_.resize(count + maxOffset(cols), 6);
-  const auto springs = families();
-  double* const slot_arrays[3] = {slots_.col(0).data(), slots_.col(1).data(), slots_.col(2).data()};
-  double* const result_arrays[3] = {result_.col(0).data(), result_.col(1).data(), result_.col(2).data()};
+  result_.setZero(positions_m.cols(), 3);
+  const ActiveFamilies springs = activeFamilies();
+  prepareRowScratch(kForceRowArrays);
 #pragma omp parallel if (parallel())
   {
     const RowBand band = threadBand(rows);
-    for (const StencilFamily& family : springs) {
-      if (family.stiffness_N_per_m == 0.0 && family.damping_N_s_per_m == 0.0) continue;
-      stencilSpringForces(rows, cols, family, constView(positions_), constView(velocities_),
-                          {slot_arrays[0], slot_arrays[1], slot_arrays[2]}, band.begin, band.end);
-#pragma omp barrier
-      stencilGather(family.offset(cols), slot_arrays, result_arrays, 3, -1.0,
-                    static_cast<std::ptrdiff_t>(band.begin) * cols, static_cast<std::ptrdiff_t>(band.end) * cols);
-#pragma omp barrier
-    }
+    stencilAccumulateSpringForces(rows, cols, springs.family.data(), springs.count, constView(positions_),
+                                  constView(velocities_), view(result_), threadRowScratch(), band.begin, band.end);
   }
   forces_N = result_.transpose();
   const SceneOptions& o = options_;
@@ -158,16 +163,19 @@ void ClothForceModel::linearize(const Eigen::Matrix3Xd& positions_m, const Eigen
   const int cols = grid_.cols;
   const Eigen::Index count = positions_m.cols();
   linearized_positions_ = positions_m.transpose();
-  const auto springs = families();
-  for (std::size_t f = 0; f < springs.size(); ++f) {
+  linearized_families_ = activeFamilies();
+  const ActiveFamilies& springs = linearized_families_;
+  for (int f = 0; f < springs.count; ++f) {
     inverse_length_[f].resize(count);
     transverse_stiffness_[f].resize(count);
+    linearized_inverse_length_[f] = inverse_length_[f].data();
+    linearized_transverse_[f] = transverse_stiffness_[f].data();
   }
 #pragma omp parallel if (parallel())
   {
     const RowBand band = threadBand(rows);
-    for (std::size_t f = 0; f < springs.size(); ++f) {
-      stencilLinearize(rows, cols, springs[f], constView(linearized_positions_), inverse_length_[f].data(),
+    for (int f = 0; f < springs.count; ++f) {
+      stencilLinearize(rows, cols, springs.family[f], constView(linearized_positions_), inverse_length_[f].data(),
                        transverse_stiffness_[f].data(), band.begin, band.end);
     }
   }
@@ -177,26 +185,16 @@ void ClothForceModel::springDifferential(const SoaField& dx, double scale_x, con
                                          SoaField& out) {
   const int rows = grid_.rows;
   const int cols = grid_.cols;
-  const Eigen::Index count = dx.rows();
-  out.setZero(count, 3);
-  slots_.resize(count + maxOffset(cols), 6);
-  const auto springs = families();
-  double* const slot_arrays[3] = {slots_.col(0).data(), slots_.col(1).data(), slots_.col(2).data()};
-  double* const out_arrays[3] = {out.col(0).data(), out.col(1).data(), out.col(2).data()};
+  out.setZero(dx.rows(), 3);
+  const ActiveFamilies& springs = linearized_families_;
+  prepareRowScratch(kForceRowArrays);
 #pragma omp parallel if (parallel())
   {
     const RowBand band = threadBand(rows);
-    for (std::size_t f = 0; f < springs.size(); ++f) {
-      const StencilFamily& family = springs[f];
-      if (family.stiffness_N_per_m == 0.0 && family.damping_N_s_per_m == 0.0) continue;
-      stencilSpringDifferential(rows, cols, family, constView(linearized_positions_), inverse_length_[f].data(),
-                                transverse_stiffness_[f].data(), constView(dx), scale_x, constView(dv), scale_v,
-                                {slot_arrays[0], slot_arrays[1], slot_arrays[2]}, band.begin, band.end);
-#pragma omp barrier
-      stencilGather(family.offset(cols), slot_arrays, out_arrays, 3, -1.0,
-                    static_cast<std::ptrdiff_t>(band.begin) * cols, static_cast<std::ptrdiff_t>(band.end) * cols);
-#pragma omp barrier
-    }
+    stencilAccumulateDifferential(rows, cols, springs.family.data(), springs.count, constView(linearized_positions_),
+                                  linearized_inverse_length_.data(), linearized_transverse_.data(), constView(dx),
+                                  scale_x, constView(dv), scale_v, view(out), threadRowScratch(), band.begin,
+                                  band.end);
   }
 }
 
@@ -229,29 +227,17 @@ void ClothForceModel::systemDiagonalBlocks(double step_s, Eigen::Matrix<double, 
   const double h = step_s;
   const int rows = grid_.rows;
   const int cols = grid_.cols;
-  const Eigen::Index count = grid_.particleCount();
-  slots_.resize(count + maxOffset(cols), 6);
-  block_sums_.setZero(count, 6);
-  const auto springs = families();
-  std::array<double*, 6> slot_arrays;
-  double* sum_arrays[6];
-  for (int e = 0; e < 6; ++e) {
-    slot_arrays[e] = slots_.col(e).data();
-    sum_arrays[e] = block_sums_.col(e).data();
-  }
+  block_sums_.setZero(grid_.particleCount(), 6);
+  double* sums[6];
+  for (int e = 0; e < 6; ++e) sums[e] = block_sums_.col(e).data();
+  const ActiveFamilies& springs = linearized_families_;
+  prepareRowScratch(kBlockRowArrays);
 #pragma omp parallel if (parallel())
   {
     const RowBand band = threadBand(rows);
-    for (std::size_t f = 0; f < springs.size(); ++f) {
-      const StencilFamily& family = springs[f];
-      if (family.stiffness_N_per_m == 0.0 && family.damping_N_s_per_m == 0.0) continue;
-      stencilSpringBlocks(rows, cols, family, constView(linearized_positions_), inverse_length_[f].data(),
-                          transverse_stiffness_[f].data(), h * h, h, slot_arrays, band.begin, band.end);
-#pragma omp barrier
-      stencilGather(family.offset(cols), slot_arrays.data(), sum_arrays, 6, 1.0,
-                    static_cast<std::ptrdiff_t>(band.begin) * cols, static_cast<std::ptrdiff_t>(band.end) * cols);
-#pragma omp barrier
-    }
+    stencilAccumulateBlocks(rows, cols, springs.family.data(), springs.count, constView(linearized_positions_),
+                            linearized_inverse_length_.data(), linearized_transverse_.data(), h * h, h, sums,
+                            threadRowScratch(), band.begin, band.end);
   }
   blocks = block_sums_.transpose();
   blocks.topRows<3>().rowwise() += (mass_kg_.array() + h * options_.air_damping_N_s_per_m).matrix().transpose();

@@ -18,63 +18,148 @@ ColumnRange springColumns(int rows, int cols, const StencilFamily& family, int r
   return {std::max(0, -family.dc), cols - std::max(0, family.dc)};
 }
 
-/// Zeroes the slots of row r outside [range.first, range.last) in `arrays` arrays (shifted by shift).
-void zeroOutside(int cols, int row, ColumnRange range, int shift, double* const* arrays, int count) {
-  const std::ptrdiff_t base = static_cast<std::ptrdiff_t>(row) * cols + shift;
-  for (int a = 0; a < count; ++a) {
-    double* slot = arrays[a] + base;
-    std::fill(slot, slot + range.first, 0.0);
-    std::fill(slot + std::max(range.last, range.first), slot + cols, 0.0);
+/// 1 / l, or 0 for a spring too short to have a direction (it then exerts nothing). A select, which the
+/// compiler turns into a blend (with -fno-trapping-math), so the loops around it stay vectorised.
+inline double inverseLength(double length_m) { return length_m > kStencilDegenerateLength_m ? 1.0 / length_m : 0.0; }
+
+// The per-row loops take every array as a __restrict function parameter, shifted to the row's first
+// spring: GCC 12 vectorises them in that form (and not with __restrict locals).
+//
+// Each is compiled three times, for AVX-512, for AVX2 and for the x86-64 baseline (SSE2), and the loader
+// picks the widest the processor runs (GCC's target_clones, an ifunc): the package keeps building for
+// every x86-64 machine and still uses 4 or 8 lanes where they exist. With -ffp-contract=off (CMakeLists)
+// every clone rounds exactly like the others, so the results are the same bits on every machine.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define CLOTH_SIM_VECTOR_CLONES __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
+#else
+#define CLOTH_SIM_VECTOR_CLONES
+#endif
+
+CLOTH_SIM_VECTOR_CLONES void springForceRow(int count, int offset, double ks, double kd, double rest, const double* __restrict px,
+                    const double* __restrict py, const double* __restrict pz, const double* __restrict vx,
+                    const double* __restrict vy, const double* __restrict vz, double* __restrict fx,
+                    double* __restrict fy, double* __restrict fz) {
+  for (int i = 0; i < count; ++i) {
+    const int j = i + offset;
+    const double dx = px[j] - px[i];
+    const double dy = py[j] - py[i];
+    const double dz = pz[j] - pz[i];
+    const double length = std::sqrt(dx * dx + dy * dy + dz * dz);
+    const double inverse = inverseLength(length);
+    const double separation_rate = ((vx[j] - vx[i]) * dx + (vy[j] - vy[i]) * dy + (vz[j] - vz[i]) * dz) * inverse;
+    const double magnitude = (ks * (length - rest) + kd * separation_rate) * inverse;
+    fx[i] = magnitude * dx;
+    fy[i] = magnitude * dy;
+    fz[i] = magnitude * dz;
   }
 }
 
-/// Zeroes the slots before the first spring's (no spring ends at the first `offset` particles), once per
-/// pass: by the band that holds row 0.
-void zeroLeading(int row_begin, int offset, double* const* arrays, int count) {
-  if (row_begin != 0) return;
-  for (int a = 0; a < count; ++a) std::fill(arrays[a], arrays[a] + offset, 0.0);
+CLOTH_SIM_VECTOR_CLONES void linearizeRow(int count, int offset, double ks, double rest, const double* __restrict px,
+                  const double* __restrict py, const double* __restrict pz, double* __restrict inverse_length,
+                  double* __restrict transverse) {
+  for (int i = 0; i < count; ++i) {
+    const int j = i + offset;
+    const double dx = px[j] - px[i];
+    const double dy = py[j] - py[i];
+    const double dz = pz[j] - pz[i];
+    const double inverse = inverseLength(std::sqrt(dx * dx + dy * dy + dz * dz));
+    inverse_length[i] = inverse;
+    const double across = 1.0 - rest * inverse;
+    transverse[i] = ks * (across > 0.0 ? across : 0.0);
+  }
 }
 
-/// 1 / l, or 0 for a spring too short to have a direction (it then exerts nothing).
-inline double inverseLength(double length_m) {
-  return length_m > kStencilDegenerateLength_m ? 1.0 / length_m : 0.0;
+CLOTH_SIM_VECTOR_CLONES void differentialRow(int count, int offset, double ks, double kd_scaled, double scale_x, const double* __restrict px,
+                     const double* __restrict py, const double* __restrict pz, const double* __restrict inverse_length,
+                     const double* __restrict transverse, const double* __restrict ax, const double* __restrict ay,
+                     const double* __restrict az, const double* __restrict bx, const double* __restrict by,
+                     const double* __restrict bz, double* __restrict fx, double* __restrict fy,
+                     double* __restrict fz) {
+  for (int i = 0; i < count; ++i) {
+    const int j = i + offset;
+    const double ux = (px[j] - px[i]) * inverse_length[i];
+    const double uy = (py[j] - py[i]) * inverse_length[i];
+    const double uz = (pz[j] - pz[i]) * inverse_length[i];
+    const double dax = ax[j] - ax[i];
+    const double day = ay[j] - ay[i];
+    const double daz = az[j] - az[i];
+    const double along = scale_x * (ks - transverse[i]) * (ux * dax + uy * day + uz * daz) +
+                         kd_scaled * (ux * (bx[j] - bx[i]) + uy * (by[j] - by[i]) + uz * (bz[j] - bz[i]));
+    const double across = scale_x * transverse[i];
+    fx[i] = across * dax + along * ux;
+    fy[i] = across * day + along * uy;
+    fz[i] = across * daz + along * uz;
+  }
+}
+
+CLOTH_SIM_VECTOR_CLONES void blockRow(int count, int offset, double ks, double kd_scaled, double scale_x, const double* __restrict px,
+              const double* __restrict py, const double* __restrict pz, const double* __restrict inverse_length,
+              const double* __restrict transverse, double* __restrict bxx, double* __restrict byy,
+              double* __restrict bzz, double* __restrict bxy, double* __restrict bxz, double* __restrict byz) {
+  for (int i = 0; i < count; ++i) {
+    const int j = i + offset;
+    const double ux = (px[j] - px[i]) * inverse_length[i];
+    const double uy = (py[j] - py[i]) * inverse_length[i];
+    const double uz = (pz[j] - pz[i]) * inverse_length[i];
+    const double across = scale_x * transverse[i];
+    const double along = scale_x * (ks - transverse[i]) + kd_scaled;
+    bxx[i] = across + along * ux * ux;
+    byy[i] = across + along * uy * uy;
+    bzz[i] = across + along * uz * uz;
+    bxy[i] = along * ux * uy;
+    bxz[i] = along * ux * uz;
+    byz[i] = along * uy * uz;
+  }
 }
 
 }  // namespace
 
-void stencilSpringForces(int rows, int cols, const StencilFamily& family, ConstField positions_m,
-                         ConstField velocities_m_per_s, Field spring_force_N, int row_begin, int row_end) {
-  const int offset = family.offset(cols);
-  const double ks = family.stiffness_N_per_m;
-  const double kd = family.damping_N_s_per_m;
-  const double rest = family.rest_length_m;
-  const double* __restrict px = positions_m.x;
-  const double* __restrict py = positions_m.y;
-  const double* __restrict pz = positions_m.z;
-  const double* __restrict vx = velocities_m_per_s.x;
-  const double* __restrict vy = velocities_m_per_s.y;
-  const double* __restrict vz = velocities_m_per_s.z;
-  double* __restrict fx = spring_force_N.x + offset;
-  double* __restrict fy = spring_force_N.y + offset;
-  double* __restrict fz = spring_force_N.z + offset;
-  double* const arrays[3] = {spring_force_N.x, spring_force_N.y, spring_force_N.z};
-  zeroLeading(row_begin, offset, arrays, 3);
-  for (int r = row_begin; r < row_end; ++r) {
-    const ColumnRange range = springColumns(rows, cols, family, r);
-    zeroOutside(cols, r, range, offset, arrays, 3);
-    const std::ptrdiff_t row_start = static_cast<std::ptrdiff_t>(r) * cols;
-    for (std::ptrdiff_t i = row_start + range.first; i < row_start + range.last; ++i) {
-      const std::ptrdiff_t j = i + offset;
-      const double dx = px[j] - px[i];
-      const double dy = py[j] - py[i];
-      const double dz = pz[j] - pz[i];
-      const double length = std::sqrt(dx * dx + dy * dy + dz * dz);
-      const double inverse = inverseLength(length);
-      const double separation_rate = ((vx[j] - vx[i]) * dx + (vy[j] - vy[i]) * dy + (vz[j] - vz[i]) * dz) * inverse;
-      const double magnitude = (ks * (length - rest) + kd * separation_rate) * inverse;
-      fx[i] = magnitude * dx;
-      fy[i] = magnitude * dy;
-      fz[i] = magnitude * dz;
+namespace {
+
+/// Adds row buffer `spring` (springs starting at row r, columns range.first..) to the first ends (if row r
+/// is in the band) and `sign_second` times it to the second ends (if row r + dr is in the band).
+void applyRow(int cols, int row, ColumnRange range, int offset, int row_begin, int row_end, int dr, int arrays,
+              const double* const* spring, double* const* out, double sign_second) {
+  const int count = range.last - range.first;
+  const std::ptrdiff_t first = static_cast<std::ptrdiff_t>(row) * cols + range.first;
+  const bool first_in_band = row >= row_begin;
+  const bool second_in_band = row + dr >= row_begin && row + dr < row_end;
+  for (int a = 0; a < arrays; ++a) {
+    const double* __restrict value = spring[a];
+    if (first_in_band) {
+      double* __restrict target = out[a] + first;
+      for (int i = 0; i < count; ++i) target[i] += value[i];
+    }
+    if (second_in_band) {
+      double* __restrict target = out[a] + first + offset;
+      for (int i = 0; i < count; ++i) target[i] += sign_second * value[i];
+    }
+  }
+}
+
+/// Rows whose springs may end in the band: two more above it (the bend springs reach two rows down).
+int firstSourceRow(int row_begin) { return std::max(0, row_begin - 2); }
+
+}  // namespace
+
+void stencilAccumulateSpringForces(int rows, int cols, const StencilFamily* families, int family_count,
+                                   ConstField positions_m, ConstField velocities_m_per_s, Field forces_N,
+                                   double* row_scratch, int row_begin, int row_end) {
+  double* const spring[3] = {row_scratch, row_scratch + cols, row_scratch + 2 * cols};
+  double* const out[3] = {forces_N.x, forces_N.y, forces_N.z};
+  for (int r = firstSourceRow(row_begin); r < row_end; ++r) {
+    for (int f = 0; f < family_count; ++f) {
+      const StencilFamily& family = families[f];
+      const ColumnRange range = springColumns(rows, cols, family, r);
+      if (range.last <= range.first) continue;
+      if (r < row_begin && r + family.dr < row_begin) continue;  // ends above the band
+      const int offset = family.offset(cols);
+      const std::ptrdiff_t first = static_cast<std::ptrdiff_t>(r) * cols + range.first;
+      springForceRow(range.last - range.first, offset, family.stiffness_N_per_m, family.damping_N_s_per_m,
+                     family.rest_length_m, positions_m.x + first, positions_m.y + first, positions_m.z + first,
+                     velocities_m_per_s.x + first, velocities_m_per_s.y + first, velocities_m_per_s.z + first,
+                     spring[0], spring[1], spring[2]);
+      applyRow(cols, r, range, offset, row_begin, row_end, family.dr, 3, spring, out, -1.0);
     }
   }
 }
@@ -83,122 +168,63 @@ void stencilLinearize(int rows, int cols, const StencilFamily& family, ConstFiel
                       double* inverse_length_per_m, double* transverse_stiffness_N_per_m, int row_begin,
                       int row_end) {
   const int offset = family.offset(cols);
-  const double ks = family.stiffness_N_per_m;
-  const double rest = family.rest_length_m;
-  const double* __restrict px = positions_m.x;
-  const double* __restrict py = positions_m.y;
-  const double* __restrict pz = positions_m.z;
-  double* __restrict inv = inverse_length_per_m;
-  double* __restrict transverse = transverse_stiffness_N_per_m;
   for (int r = row_begin; r < row_end; ++r) {
     const ColumnRange range = springColumns(rows, cols, family, r);
-    const std::ptrdiff_t row_start = static_cast<std::ptrdiff_t>(r) * cols;
-    for (std::ptrdiff_t i = row_start + range.first; i < row_start + range.last; ++i) {
-      const std::ptrdiff_t j = i + offset;
-      const double dx = px[j] - px[i];
-      const double dy = py[j] - py[i];
-      const double dz = pz[j] - pz[i];
-      const double inverse = inverseLength(std::sqrt(dx * dx + dy * dy + dz * dz));
-      inv[i] = inverse;
-      transverse[i] = ks * std::max(0.0, 1.0 - rest * inverse);
+    if (range.last <= range.first) continue;
+    const std::ptrdiff_t first = static_cast<std::ptrdiff_t>(r) * cols + range.first;
+    linearizeRow(range.last - range.first, offset, family.stiffness_N_per_m, family.rest_length_m,
+                 positions_m.x + first, positions_m.y + first, positions_m.z + first, inverse_length_per_m + first,
+                 transverse_stiffness_N_per_m + first);
+  }
+}
+
+void stencilAccumulateDifferential(int rows, int cols, const StencilFamily* families, int family_count,
+                                   ConstField linearized_positions_m, const double* const* inverse_length_per_m,
+                                   const double* const* transverse_stiffness_N_per_m, ConstField dx, double scale_x,
+                                   ConstField dv, double scale_v, Field df_N, double* row_scratch, int row_begin,
+                                   int row_end) {
+  double* const spring[3] = {row_scratch, row_scratch + cols, row_scratch + 2 * cols};
+  double* const out[3] = {df_N.x, df_N.y, df_N.z};
+  const ConstField& p = linearized_positions_m;
+  for (int r = firstSourceRow(row_begin); r < row_end; ++r) {
+    for (int f = 0; f < family_count; ++f) {
+      const StencilFamily& family = families[f];
+      const ColumnRange range = springColumns(rows, cols, family, r);
+      if (range.last <= range.first) continue;
+      if (r < row_begin && r + family.dr < row_begin) continue;
+      const int offset = family.offset(cols);
+      const std::ptrdiff_t first = static_cast<std::ptrdiff_t>(r) * cols + range.first;
+      differentialRow(range.last - range.first, offset, family.stiffness_N_per_m,
+                      scale_v * family.damping_N_s_per_m, scale_x, p.x + first, p.y + first, p.z + first,
+                      inverse_length_per_m[f] + first, transverse_stiffness_N_per_m[f] + first, dx.x + first,
+                      dx.y + first, dx.z + first, dv.x + first, dv.y + first, dv.z + first, spring[0], spring[1],
+                      spring[2]);
+      applyRow(cols, r, range, offset, row_begin, row_end, family.dr, 3, spring, out, -1.0);
     }
   }
 }
 
-void stencilSpringDifferential(int rows, int cols, const StencilFamily& family, ConstField linearized_positions_m,
-                               const double* inverse_length_per_m, const double* transverse_stiffness_N_per_m,
-                               ConstField dx, double scale_x, ConstField dv, double scale_v, Field spring_force_N,
-                               int row_begin, int row_end) {
-  const int offset = family.offset(cols);
-  const double ks = family.stiffness_N_per_m;
-  const double kd_scaled = scale_v * family.damping_N_s_per_m;
-  const double* __restrict px = linearized_positions_m.x;
-  const double* __restrict py = linearized_positions_m.y;
-  const double* __restrict pz = linearized_positions_m.z;
-  const double* __restrict inv = inverse_length_per_m;
-  const double* __restrict transverse = transverse_stiffness_N_per_m;
-  const double* __restrict ax = dx.x;
-  const double* __restrict ay = dx.y;
-  const double* __restrict az = dx.z;
-  const double* __restrict bx = dv.x;
-  const double* __restrict by = dv.y;
-  const double* __restrict bz = dv.z;
-  double* __restrict fx = spring_force_N.x + offset;
-  double* __restrict fy = spring_force_N.y + offset;
-  double* __restrict fz = spring_force_N.z + offset;
-  double* const arrays[3] = {spring_force_N.x, spring_force_N.y, spring_force_N.z};
-  zeroLeading(row_begin, offset, arrays, 3);
-  for (int r = row_begin; r < row_end; ++r) {
-    const ColumnRange range = springColumns(rows, cols, family, r);
-    zeroOutside(cols, r, range, offset, arrays, 3);
-    const std::ptrdiff_t row_start = static_cast<std::ptrdiff_t>(r) * cols;
-    for (std::ptrdiff_t i = row_start + range.first; i < row_start + range.last; ++i) {
-      const std::ptrdiff_t j = i + offset;
-      const double ux = (px[j] - px[i]) * inv[i];
-      const double uy = (py[j] - py[i]) * inv[i];
-      const double uz = (pz[j] - pz[i]) * inv[i];
-      const double dax = ax[j] - ax[i];
-      const double day = ay[j] - ay[i];
-      const double daz = az[j] - az[i];
-      const double dbx = bx[j] - bx[i];
-      const double dby = by[j] - by[i];
-      const double dbz = bz[j] - bz[i];
-      const double a = scale_x * transverse[i];
-      const double along = scale_x * (ks - transverse[i]) * (ux * dax + uy * day + uz * daz) +
-                           kd_scaled * (ux * dbx + uy * dby + uz * dbz);
-      fx[i] = a * dax + along * ux;
-      fy[i] = a * day + along * uy;
-      fz[i] = a * daz + along * uz;
+void stencilAccumulateBlocks(int rows, int cols, const StencilFamily* families, int family_count,
+                             ConstField linearized_positions_m, const double* const* inverse_length_per_m,
+                             const double* const* transverse_stiffness_N_per_m, double scale_x, double scale_v,
+                             double* const* blocks, double* row_scratch, int row_begin, int row_end) {
+  double* const spring[6] = {row_scratch,           row_scratch + cols,     row_scratch + 2 * cols,
+                             row_scratch + 3 * cols, row_scratch + 4 * cols, row_scratch + 5 * cols};
+  const ConstField& p = linearized_positions_m;
+  for (int r = firstSourceRow(row_begin); r < row_end; ++r) {
+    for (int f = 0; f < family_count; ++f) {
+      const StencilFamily& family = families[f];
+      const ColumnRange range = springColumns(rows, cols, family, r);
+      if (range.last <= range.first) continue;
+      if (r < row_begin && r + family.dr < row_begin) continue;
+      const int offset = family.offset(cols);
+      const std::ptrdiff_t first = static_cast<std::ptrdiff_t>(r) * cols + range.first;
+      blockRow(range.last - range.first, offset, family.stiffness_N_per_m, scale_v * family.damping_N_s_per_m,
+               scale_x, p.x + first, p.y + first, p.z + first, inverse_length_per_m[f] + first,
+               transverse_stiffness_N_per_m[f] + first, spring[0], spring[1], spring[2], spring[3], spring[4],
+               spring[5]);
+      applyRow(cols, r, range, offset, row_begin, row_end, family.dr, 6, spring, blocks, 1.0);
     }
-  }
-}
-
-void stencilSpringBlocks(int rows, int cols, const StencilFamily& family, ConstField linearized_positions_m,
-                         const double* inverse_length_per_m, const double* transverse_stiffness_N_per_m,
-                         double scale_x, double scale_v, const std::array<double*, 6>& blocks, int row_begin,
-                         int row_end) {
-  const int offset = family.offset(cols);
-  const double ks = family.stiffness_N_per_m;
-  const double kd_scaled = scale_v * family.damping_N_s_per_m;
-  const double* __restrict px = linearized_positions_m.x;
-  const double* __restrict py = linearized_positions_m.y;
-  const double* __restrict pz = linearized_positions_m.z;
-  const double* __restrict inv = inverse_length_per_m;
-  const double* __restrict transverse = transverse_stiffness_N_per_m;
-  double* __restrict bxx = blocks[0] + offset;
-  double* __restrict byy = blocks[1] + offset;
-  double* __restrict bzz = blocks[2] + offset;
-  double* __restrict bxy = blocks[3] + offset;
-  double* __restrict bxz = blocks[4] + offset;
-  double* __restrict byz = blocks[5] + offset;
-  zeroLeading(row_begin, offset, blocks.data(), 6);
-  for (int r = row_begin; r < row_end; ++r) {
-    const ColumnRange range = springColumns(rows, cols, family, r);
-    zeroOutside(cols, r, range, offset, blocks.data(), 6);
-    const std::ptrdiff_t row_start = static_cast<std::ptrdiff_t>(r) * cols;
-    for (std::ptrdiff_t i = row_start + range.first; i < row_start + range.last; ++i) {
-      const std::ptrdiff_t j = i + offset;
-      const double ux = (px[j] - px[i]) * inv[i];
-      const double uy = (py[j] - py[i]) * inv[i];
-      const double uz = (pz[j] - pz[i]) * inv[i];
-      const double a = scale_x * transverse[i];
-      const double along = scale_x * (ks - transverse[i]) + kd_scaled;
-      bxx[i] = a + along * ux * ux;
-      byy[i] = a + along * uy * uy;
-      bzz[i] = a + along * uz * uz;
-      bxy[i] = along * ux * uy;
-      bxz[i] = along * ux * uz;
-      byz[i] = along * uy * uz;
-    }
-  }
-}
-
-void stencilGather(int offset, const double* const* slots, double* const* out, int arrays, double sign_end,
-                   std::ptrdiff_t begin, std::ptrdiff_t end) {
-  for (int a = 0; a < arrays; ++a) {
-    const double* __restrict slot = slots[a];
-    double* __restrict target = out[a];
-    for (std::ptrdiff_t i = begin; i < end; ++i) target[i] += slot[offset + i] + sign_end * slot[i];
   }
 }
 

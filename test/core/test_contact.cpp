@@ -16,7 +16,7 @@ constexpr double kGravity_m_per_s2 = 9.81;
 /// Four free particles (a 2 x 2 grid with every spring off): each one is an independent point mass.
 SceneOptions freeParticles(const Eigen::Vector3d& origin_m, const Eigen::Vector3d& u_axis,
                            const Eigen::Vector3d& v_axis) {
-  SceneOptions o;
+  SceneOptions o = test::withSymplecticEuler(SceneOptions());
   o.rows = 2;
   o.cols = 2;
   o.width_m = 0.1;
@@ -238,6 +238,7 @@ TEST(Contact, TenMetrePerSecondSphereThroughA64x64ClothIsCaughtAndPushesIt) {
   o.springs[1] = {true, 0.5, 0.0};
   o.springs[2] = {true, 0.1, 0.0};
   o.air_damping_N_s_per_m = 0.0;
+  o.integrator = IntegratorKind::kSymplecticEuler;
   o.substeps = 4;
   SphereCollider sphere;
   sphere.radius_m = 0.05;

@@ -272,7 +272,7 @@ TEST(Damping, SpringDampingDoesNotDrainRigidTranslation) {
 
 TEST(StabilityGuard, AFrameThatDivergesIsRecomputedWithMoreSubstepsNotFrozen) {
   // A stiff hand on a light corner particle: stable only with more substeps than the scene has.
-  SceneOptions o;
+  SceneOptions o = test::withSymplecticEuler(SceneOptions());
   o.substeps = 10;
   Simulation sim(o);
   GraspRequest hand;
@@ -298,7 +298,7 @@ TEST(StabilityGuard, AFrameThatDivergesIsRecomputedWithMoreSubstepsNotFrozen) {
 TEST(StabilityGuard, AHopelessFrameIsRolledBackAndTheStateStaysFinite) {
   // The stiffest springs the options accept, one substep: even 8 substeps cannot hold it. Instability
   // grows over a few frames; the first frame that still diverges with the guard must be rolled back.
-  SceneOptions o;
+  SceneOptions o = test::withSymplecticEuler(SceneOptions());
   o.substeps = 1;
   o.springs[static_cast<int>(SpringKind::kStructural)].stiffness_N_per_m = OptionLimits::kMaxStiffnessN_per_m;
   Simulation sim(o);
@@ -316,6 +316,86 @@ TEST(StabilityGuard, AHopelessFrameIsRolledBackAndTheStateStaysFinite) {
     return;
   }
   FAIL() << "no frame diverged in " << kFrames << " frames: the test proves nothing";
+}
+
+/// The stiffest cloth the options accept (structural 1e7 N/m), hanging from two corners.
+SceneOptions stiffHangingCloth(IntegratorKind kind, int substeps) {
+  SceneOptions o;
+  o.springs[static_cast<int>(SpringKind::kStructural)].stiffness_N_per_m = OptionLimits::kMaxStiffnessN_per_m;
+  o.integrator = kind;
+  o.substeps = substeps;
+  return o;
+}
+
+TEST(ImplicitEuler, AStiffClothAtOneStepPerFrameStaysFiniteAndUnstretchedWhereEveryExplicitMethodDiverges) {
+  constexpr int kFrames = 50;
+  Simulation implicit(stiffHangingCloth(IntegratorKind::kImplicitEuler, 1));
+  int force_evaluations = 0;
+  int steps = 0;
+  for (int frame = 0; frame < kFrames; ++frame) {
+    const FrameReport report = implicit.advanceFrame();
+    ASSERT_TRUE(report.stable) << report.reason;
+    ASSERT_FALSE(report.recomputed) << report.reason;
+    // A CG iteration costs about one force evaluation: count both.
+    force_evaluations += report.steps.force_evaluations + report.steps.solver_iterations;
+    steps += report.substeps_used;
+  }
+  EXPECT_TRUE(isFiniteAndBounded(implicit.state(), Simulation::kDivergenceBound_m));
+  EXPECT_LT(implicit.maxStructuralStrain(), 0.01) << "a 1e7 N/m cloth barely stretches under 0.5 kg";
+  // Each explicit method gets the same number of force evaluations per frame (at least one step).
+  const int evaluations_per_frame = force_evaluations / kFrames;
+  for (IntegratorKind kind : {IntegratorKind::kForwardEuler, IntegratorKind::kSymplecticEuler,
+                              IntegratorKind::kMidpoint, IntegratorKind::kRK4}) {
+    const int stages = makeIntegrator(kind)->order() == 4 ? 4 : makeIntegrator(kind)->order();
+    Simulation sim(stiffHangingCloth(kind, std::max(1, evaluations_per_frame / stages)));
+    bool diverged = false;
+    for (int frame = 0; frame < kFrames && !diverged; ++frame) diverged = !sim.advanceFrame().stable;
+    EXPECT_TRUE(diverged) << integratorName(kind) << " with " << sim.options().substeps
+                          << " substeps per frame did not diverge: the comparison proves nothing";
+  }
+  std::printf("[ implicit   ] stiff cloth: %d steps, %.1f force evaluations + CG iterations per frame, strain %.2e\n",
+              steps, static_cast<double>(force_evaluations) / kFrames, implicit.maxStructuralStrain());
+}
+
+TEST(ImplicitEuler, EnergyDecaysAndNeverGrowsWithoutForcing) {
+  // A free cloth (no gravity, no air, no pins) stretched 20 % and let go: no external force does work, so
+  // kinetic plus elastic energy may only fall, frame after frame, and must fall by much.
+  SceneOptions o = test::freeCloth(16, 16);
+  o.integrator = IntegratorKind::kImplicitEuler;
+  o.substeps = 1;
+  o.air_damping_N_s_per_m = 0.0;
+  for (SpringOptions& spring : o.springs) spring.damping_N_s_per_m = 0.0;  // only the method's own damping
+  Simulation sim(o);
+  ClothState stretched = sim.state();
+  const Eigen::Vector3d centre = stretched.positions_m.rowwise().mean();
+  stretched.positions_m = (1.2 * (stretched.positions_m.colwise() - centre)).colwise() + centre;
+  std::string error;
+  ASSERT_TRUE(sim.restoreState(stretched, &error)) << error;
+  const auto total = [&sim] { return sim.energies().kinetic_J + sim.energies().potential_J; };
+  const double e0 = total();
+  double previous = e0;
+  for (int frame = 0; frame < 100; ++frame) {
+    sim.advanceFrame();
+    const double e = total();
+    EXPECT_LE(e, previous + 1e-12 * e0) << "frame " << frame;  // grows by no more than rounding
+    previous = e;
+  }
+  EXPECT_LT(previous, 0.5 * e0) << "implicit Euler damps the oscillation";
+}
+
+TEST(ImplicitEuler, APinnedCornerLandsExactlyOnItsMovingHookAndTheSolverReportsItsWork) {
+  SceneOptions o;
+  o.pin_motion_amplitude_m = Eigen::Vector3d(0.2, 0.0, 0.0);
+  o.pin_motion_period_s = 1.0;
+  Simulation sim(o);
+  const int corner = sim.pinnedParticles().front();
+  for (int frame = 0; frame < 30; ++frame) {
+    const FrameReport report = sim.advanceFrame();
+    EXPECT_GT(report.steps.solver_iterations, 0);
+    EXPECT_GE(report.steps.force_evaluations, 1);
+  }
+  const Eigen::Vector3d hook = sim.grid().rest_positions_m.col(corner) + sim.forceModel().pinOffset(sim.state().time_s);
+  EXPECT_LT((sim.state().positions_m.col(corner) - hook).norm(), 1e-12);
 }
 
 }  // namespace

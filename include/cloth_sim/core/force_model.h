@@ -61,7 +61,20 @@ class ClothForceModel final : public Dynamics {
   /// Column-major N x 3: each coordinate contiguous (structure of arrays).
   using SoaField = Eigen::Matrix<double, Eigen::Dynamic, 3>;
 
-  std::array<StencilFamily, kStencilFamilies.size()> families() const;
+  /// The switched-on families (zero stiffness and damping counts as off), in kStencilFamilies order.
+  struct ActiveFamilies {
+    std::array<StencilFamily, kStencilFamilies.size()> family{};
+    int count = 0;
+  };
+  /// Row scratch arrays per thread: 3 for forces and differentials, 6 for the diagonal blocks.
+  static constexpr int kForceRowArrays = 3;
+  static constexpr int kBlockRowArrays = 6;
+
+  ActiveFamilies activeFamilies() const;
+  /// Sizes the per-thread row scratch for `arrays` arrays of one grid row each.
+  void prepareRowScratch(int arrays);
+  /// This thread's row scratch (inside or outside a parallel region).
+  double* threadRowScratch();
   bool parallel() const { return grid_.particleCount() >= kParallelThreshold; }
   /// Spring differential of every switched-on family: out = springs' dF for (scale_x dx, scale_v dv).
   void springDifferential(const SoaField& dx, double scale_x, const SoaField& dv, double scale_v, SoaField& out);
@@ -75,11 +88,13 @@ class ClothForceModel final : public Dynamics {
 
   // Scratch, reused across calls (sized on first use).
   SoaField positions_, velocities_, result_, dx_, dv_;
-  Eigen::Matrix<double, Eigen::Dynamic, 6> slots_;   ///< per-spring values, shifted by the family offset
+  Eigen::MatrixXd row_scratch_;  ///< one column per thread: a few grid rows of per-spring values
   Eigen::Matrix<double, Eigen::Dynamic, 6> block_sums_;
-  // The linearisation (written by linearize).
+  // The linearisation (written by linearize), per switched-on family.
   SoaField linearized_positions_;
+  ActiveFamilies linearized_families_;
   std::array<Eigen::VectorXd, kStencilFamilies.size()> inverse_length_, transverse_stiffness_;
+  std::array<const double*, kStencilFamilies.size()> linearized_inverse_length_{}, linearized_transverse_{};
 };
 
 }  // namespace cloth_sim::core

@@ -3,11 +3,6 @@
 // structure-of-arrays fields (one contiguous array per coordinate), so their inner loops run over
 // consecutive columns without an index table, a branch or a call per spring, and the compiler
 // vectorises them. They work on a band of rows [row_begin, row_end) so that threads can share a grid.
-//
-// Each kernel writes one value per spring into a buffer slot indexed by the spring's first particle,
-// shifted by the family's index offset (dr * cols + dc); a slot with no spring gets zero. A gather pass
-// then gives particle i the spring that starts at i (slot offset + i) minus the one that ends at i
-// (slot i), with no scatter and so no write shared between threads.
 #pragma once
 
 #include <array>
@@ -54,39 +49,42 @@ constexpr std::array<StencilFamilyLayout, 6> kStencilFamilies{{
 /// Below this a spring has no usable direction, m; it then exerts no force (as the edge-list kernel).
 constexpr double kStencilDegenerateLength_m = 1e-6;
 
-/// Per-spring force on the first particle, N: (Ks (l - L) + Kd (dv . u)) u with d = x_j - x_i, u = d/l.
-/// Writes slots [offset + row_begin * cols, offset + row_end * cols) of `spring_force`, and the first
-/// `offset` slots (zero) when row_begin is 0.
-void stencilSpringForces(int rows, int cols, const StencilFamily& family, ConstField positions_m,
-                         ConstField velocities_m_per_s, Field spring_force_N, int row_begin, int row_end);
+/// The kernels below add the contributions of every spring of the given families that has an end in the
+/// particle rows [row_begin, row_end) to those rows of the output, and write nothing outside them: a spring
+/// that crosses into the band from the two rows above it is computed by both bands, so threads that own
+/// disjoint bands need no lock, no barrier and no shared buffer, and each value is summed in the same
+/// order whatever the bands. Each row of springs is computed into `row_scratch` (3 x cols doubles; 6 x
+/// cols for the blocks), which stays in the L1 cache, then added to both ends.
 
-/// Linearisation of one family at the given positions, per spring slot (as above, but unshifted: slot
-/// = first particle): 1 / l, and Ks * max(0, 1 - L / l), the part of the stiffness along the directions
+/// Spring forces, N: on particle i of spring (i, j), (Ks (l - L) + Kd (v_j - v_i) . u) u with d = x_j - x_i,
+/// l = |d|, u = d / l; the opposite on j.
+void stencilAccumulateSpringForces(int rows, int cols, const StencilFamily* families, int family_count,
+                                   ConstField positions_m, ConstField velocities_m_per_s, Field forces_N,
+                                   double* row_scratch, int row_begin, int row_end);
+
+/// Linearisation of one family at the given positions, per spring (indexed by its first particle, rows
+/// [row_begin, row_end) of first particles): 1 / l, and Ks * max(0, 1 - L / l), the part of the stiffness
 /// across the spring. That part is dropped for a compressed spring (l < L), where it would make the
 /// stiffness matrix indefinite (Baraff and Witkin's definiteness fix).
 void stencilLinearize(int rows, int cols, const StencilFamily& family, ConstField positions_m,
                       double* inverse_length_per_m, double* transverse_stiffness_N_per_m, int row_begin,
                       int row_end);
 
-/// Per-spring differential force on the first particle, N, for position change dx and velocity change
-/// dv: scale_x (a Ddx + (Ks - a) u (u . Ddx)) + scale_v Kd u (u . Ddv), with a the transverse stiffness,
-/// Ddx = dx_j - dx_i, u from the linearised positions. Written like stencilSpringForces.
-void stencilSpringDifferential(int rows, int cols, const StencilFamily& family, ConstField linearized_positions_m,
-                               const double* inverse_length_per_m, const double* transverse_stiffness_N_per_m,
-                               ConstField dx, double scale_x, ConstField dv, double scale_v, Field spring_force_N,
-                               int row_begin, int row_end);
+/// Differential spring forces, N, for a position change dx and a velocity change dv: on particle i,
+/// scale_x (a Ddx + (Ks - a) u (u . Ddx)) + scale_v Kd u (u . Ddv) with a the transverse stiffness,
+/// Ddx = dx_j - dx_i, u from the linearised positions; the opposite on j. Per-family linearisation arrays
+/// are indexed as `families`.
+void stencilAccumulateDifferential(int rows, int cols, const StencilFamily* families, int family_count,
+                                   ConstField linearized_positions_m, const double* const* inverse_length_per_m,
+                                   const double* const* transverse_stiffness_N_per_m, ConstField dx, double scale_x,
+                                   ConstField dv, double scale_v, Field df_N, double* row_scratch, int row_begin,
+                                   int row_end);
 
-/// Per-spring 3x3 block scale_x (a I + (Ks - a) u u^T) + scale_v Kd u u^T, its six entries (xx, yy, zz,
-/// xy, xz, yz) into six arrays, shifted as in stencilSpringForces. Both ends of a spring get the same
-/// block on their diagonal.
-void stencilSpringBlocks(int rows, int cols, const StencilFamily& family, ConstField linearized_positions_m,
-                         const double* inverse_length_per_m, const double* transverse_stiffness_N_per_m,
-                         double scale_x, double scale_v, const std::array<double*, 6>& blocks, int row_begin,
-                         int row_end);
-
-/// Gather for particles [begin, end): out_i += sign_start * slot[offset + i] + sign_end * slot[i], for
-/// each of `arrays` arrays (forces: +1, -1; diagonal blocks: +1, +1).
-void stencilGather(int offset, const double* const* slots, double* const* out, int arrays, double sign_end,
-                   std::ptrdiff_t begin, std::ptrdiff_t end);
+/// The springs' part of the 3x3 diagonal blocks: scale_x (a I + (Ks - a) u u^T) + scale_v Kd u u^T added
+/// to both ends' blocks, six arrays (xx, yy, zz, xy, xz, yz).
+void stencilAccumulateBlocks(int rows, int cols, const StencilFamily* families, int family_count,
+                             ConstField linearized_positions_m, const double* const* inverse_length_per_m,
+                             const double* const* transverse_stiffness_N_per_m, double scale_x, double scale_v,
+                             double* const* blocks, double* row_scratch, int row_begin, int row_end);
 
 }  // namespace cloth_sim::core
