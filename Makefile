@@ -5,6 +5,9 @@
 #   make test    build, run every gtest and rostest, print the failing cases and "N passed, N failed"
 #   make demo    build, run cloth.launch headless for DEMO_SECONDS s recording a bag, render the last mesh
 #                to a PNG and print the mesh publish rate (make demo SCENE=flag)
+#   make bench   build, then time cloth_sim against Bullet's soft-body cloth at 20, 64, 128 and 256
+#                (scripts/bench.py): markdown tables on stdout, raw JSON lines in .build/bench_results.json
+#                (make bench BENCH_ARGS=--quick, or BENCH_ARGS="--sizes 20,64 --frames 20")
 #   make pictures  record every scene (or SCENES="flag ball") and render it in rviz under Xvfb into
 #                doc/images/rviz_<scene>.png, plus the demo's picture as doc/images/demo_hanging.png
 #   make clean   remove the private workspace and the demo outputs
@@ -15,7 +18,7 @@
 SHELL := /bin/bash
 .SHELLFLAGS := -eu -o pipefail -c
 .DEFAULT_GOAL := build
-.PHONY: deps build test demo pictures clean help
+.PHONY: deps build test demo bench pictures clean help
 
 # Debian 12's own ROS 1 packages (no /opt/ros); this is the one list of what the project needs.
 DEB_PACKAGES := build-essential cmake pkg-config \
@@ -26,7 +29,10 @@ DEB_PACKAGES := build-essential cmake pkg-config \
   python3-catkin-pkg libeigen3-dev libstb-dev libyaml-cpp-dev python3-matplotlib python3-numpy xvfb \
   libgtest-dev topic-tools python3-rospy rviz \
   python3-std-msgs python3-geometry-msgs python3-visualization-msgs python3-diagnostic-msgs \
-  python3-rosgraph-msgs python3-std-srvs python3-tf2-msgs
+  python3-rosgraph-msgs python3-std-srvs python3-tf2-msgs \
+  libbullet-dev
+# libbullet-dev above is for cloth_bench's --bullet comparison only (not a run or build dependency of
+# the package: package.xml does not list it).
 # Only `make pictures` needs these (rviz screenshots under Xvfb with ImageMagick's import).
 PICTURE_PACKAGES := imagemagick
 
@@ -103,6 +109,11 @@ test: build
 
 demo: build
 	@bash $(REPO)/scripts/demo.sh $(WS) $(SCENE) $(DEMO_SECONDS) $(DEMO_DIR)
+
+BENCH_ARGS ?=
+bench: build
+	@/usr/bin/python3 $(REPO)/scripts/bench.py --bench $(WS)/devel/lib/cloth_sim/cloth_bench \
+	  --out $(REPO)/.build/bench_results.json $(BENCH_ARGS)
 
 pictures: demo
 	@$(MAKE) --no-print-directory deps DEB_PACKAGES="$(PICTURE_PACKAGES)"

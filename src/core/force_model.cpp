@@ -2,6 +2,8 @@
 
 #include "cloth_sim/core/constants.h"
 
+#include "parallel.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -57,6 +59,8 @@ ClothForceModel::ClothForceModel(const ClothGrid& grid, const SceneOptions& opti
   refreshConstraints();
 }
 
+bool ClothForceModel::parallel() const { return runsInParallel(grid_.particleCount(), options_.threads); }
+
 ClothForceModel::ActiveFamilies ClothForceModel::activeFamilies() const {
   ActiveFamilies active;
   for (std::size_t f = 0; f < kStencilFamilies.size(); ++f) {
@@ -69,12 +73,7 @@ ClothForceModel::ActiveFamilies ClothForceModel::activeFamilies() const {
 }
 
 void ClothForceModel::prepareRowScratch(int arrays) {
-#ifdef _OPENMP
-  const int threads = parallel() ? omp_get_max_threads() : 1;
-#else
-  const int threads = 1;
-#endif
-  row_scratch_.resize(static_cast<Eigen::Index>(arrays) * grid_.cols, threads);
+  row_scratch_.resize(static_cast<Eigen::Index>(arrays) * grid_.cols, threads());
 }
 
 double* ClothForceModel::threadRowScratch() {
@@ -122,13 +121,7 @@ std::size_t ClothForceModel::springCount() const {
   return count;
 }
 
-int ClothForceModel::threadCount() const {
-#ifdef _OPENMP
-  return parallel() ? omp_get_max_threads() : 1;
-#else
-  return 1;
-#endif
-}
+int ClothForceModel::threads() const { return parallel() ? options_.threads : 1; }
 
 void ClothForceModel::forces(const Eigen::Matrix3Xd& positions_m, const Eigen::Matrix3Xd& velocities_m_per_s,
                              double time_s, Eigen::Matrix3Xd& forces_N) {
@@ -139,7 +132,7 @@ void ClothForceModel::forces(const Eigen::Matrix3Xd& positions_m, const Eigen::M
   result_.setZero(positions_m.cols(), 3);
   const ActiveFamilies springs = activeFamilies();
   prepareRowScratch(kForceRowArrays);
-#pragma omp parallel if (parallel())
+#pragma omp parallel num_threads(threads()) if (parallel())
   {
     const RowBand band = threadBand(rows);
     stencilAccumulateSpringForces(rows, cols, springs.family.data(), springs.count, constView(positions_),
@@ -171,7 +164,7 @@ void ClothForceModel::linearize(const Eigen::Matrix3Xd& positions_m, const Eigen
     linearized_inverse_length_[f] = inverse_length_[f].data();
     linearized_transverse_[f] = transverse_stiffness_[f].data();
   }
-#pragma omp parallel if (parallel())
+#pragma omp parallel num_threads(threads()) if (parallel())
   {
     const RowBand band = threadBand(rows);
     for (int f = 0; f < springs.count; ++f) {
@@ -188,7 +181,7 @@ void ClothForceModel::springDifferential(const SoaField& dx, double scale_x, con
   out.setZero(dx.rows(), 3);
   const ActiveFamilies& springs = linearized_families_;
   prepareRowScratch(kForceRowArrays);
-#pragma omp parallel if (parallel())
+#pragma omp parallel num_threads(threads()) if (parallel())
   {
     const RowBand band = threadBand(rows);
     stencilAccumulateDifferential(rows, cols, springs.family.data(), springs.count, constView(linearized_positions_),
@@ -232,7 +225,7 @@ void ClothForceModel::systemDiagonalBlocks(double step_s, Eigen::Matrix<double, 
   for (int e = 0; e < 6; ++e) sums[e] = block_sums_.col(e).data();
   const ActiveFamilies& springs = linearized_families_;
   prepareRowScratch(kBlockRowArrays);
-#pragma omp parallel if (parallel())
+#pragma omp parallel num_threads(threads()) if (parallel())
   {
     const RowBand band = threadBand(rows);
     stencilAccumulateBlocks(rows, cols, springs.family.data(), springs.count, constView(linearized_positions_),

@@ -117,6 +117,7 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   problems.inRange("substeps", o.substeps, 1, L::kMaxSubsteps);
   problems.inRange("solver_tolerance", o.solver.tolerance, L::kMinSolverTolerance, 1.0);
   problems.inRange("solver_max_iterations", o.solver.max_iterations, 1, L::kMaxSolverIterations);
+  problems.inRange("threads", o.threads, 1, L::kMaxThreads);
   problems.positive("frame_rate", o.frame_rate_hz, L::kMaxFrameRateHz);
   return problems.take();
 }

@@ -159,6 +159,7 @@ std::map<std::string, Setter> makeSetters() {
   };
   s["substeps"] = [](const YAML::Node& n, SceneOptions& o) { o.substeps = readInt(n); };
   s["solver_tolerance"] = [](const YAML::Node& n, SceneOptions& o) { o.solver.tolerance = readDouble(n); };
+  s["threads"] = [](const YAML::Node& n, SceneOptions& o) { o.threads = readInt(n); };
   s["solver_max_iterations"] = [](const YAML::Node& n, SceneOptions& o) { o.solver.max_iterations = readInt(n); };
   s["frame_rate"] = [](const YAML::Node& n, SceneOptions& o) { o.frame_rate_hz = readDouble(n); };
   s["texture"] = [](const YAML::Node& n, SceneOptions& o) { o.texture = readString(n); };

@@ -2,7 +2,7 @@
 // the masses and the inputs (grasps, pin hooks, wind), it gives the forces and their differential that
 // the integrators ask for, and owns the constraints (pins on hooks) that the implicit solver filters.
 // The springs run through the stencil kernels (stencil.h) on structure-of-arrays copies of the fields,
-// on all cores above kParallelThreshold particles; every value is computed by one thread in a fixed
+// on options.threads threads from 4096 particles up (src/core/parallel.h); every value is computed by one thread in a fixed
 // order, so the results are bit-identical whatever the thread count.
 #pragma once
 
@@ -21,10 +21,6 @@ namespace cloth_sim::core {
 
 class ClothForceModel final : public Dynamics {
  public:
-  /// Particles from which the kernels run on all cores; below it a thread's start-up costs more than
-  /// its share of the work (measured with cloth_bench, doc/BENCHMARKS.md).
-  static constexpr int kParallelThreshold = 4096;
-
   /// Keeps references: grid, options, masses and inputs must outlive the model. Options and inputs may
   /// change between calls (live tuning, grasps); call refreshConstraints after pins or grasps change.
   ClothForceModel(const ClothGrid& grid, const SceneOptions& options, const Eigen::VectorXd& mass_kg,
@@ -54,8 +50,8 @@ class ClothForceModel final : public Dynamics {
 
   /// Springs one force evaluation computes (of the switched-on kinds).
   std::size_t springCount() const;
-  /// Threads a force evaluation of this grid uses.
-  int threadCount() const;
+  /// Threads a force evaluation of this grid uses: options.threads from 4096 particles up, else 1.
+  int threads() const override;
 
  private:
   /// Column-major N x 3: each coordinate contiguous (structure of arrays).
@@ -75,7 +71,8 @@ class ClothForceModel final : public Dynamics {
   void prepareRowScratch(int arrays);
   /// This thread's row scratch (inside or outside a parallel region).
   double* threadRowScratch();
-  bool parallel() const { return grid_.particleCount() >= kParallelThreshold; }
+  /// True from the particle count where threads pay (src/core/parallel.h).
+  bool parallel() const;
   /// Spring differential of every switched-on family: out = springs' dF for (scale_x dx, scale_v dv).
   void springDifferential(const SoaField& dx, double scale_x, const SoaField& dv, double scale_v, SoaField& out);
 

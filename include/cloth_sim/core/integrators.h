@@ -41,6 +41,9 @@ class Dynamics {
   /// The 3x3 diagonal blocks of that matrix, one column per particle: xx, yy, zz, xy, xz, yz.
   virtual void systemDiagonalBlocks(double step_s, Eigen::Matrix<double, 6, Eigen::Dynamic>& blocks) = 0;
 
+  /// Threads the model's loops, and a solver's over its particles, may use.
+  virtual int threads() const { return 1; }
+
   /// Accelerations, m/s^2: forces times inverse mass (so 0 for constrained particles).
   void acceleration(const Eigen::Matrix3Xd& positions_m, const Eigen::Matrix3Xd& velocities_m_per_s, double time_s,
                     Eigen::Matrix3Xd& accelerations_m_per_s2);
@@ -154,13 +157,15 @@ class ImplicitEuler final : public Integrator {
   void setOptions(const SolverOptions& options) { options_ = options; }
 
  private:
-  /// out = P^-1 r with the inverted 3x3 diagonal blocks, zero on constrained particles.
-  void precondition(const Eigen::Matrix3Xd& r, Eigen::Matrix3Xd& out) const;
+  /// out = P^-1 r with the inverted 3x3 diagonal blocks, zero on constrained particles, for particles
+  /// [begin, end).
+  void precondition(const Eigen::Matrix3Xd& r, Eigen::Matrix3Xd& out, Eigen::Index begin, Eigen::Index end) const;
 
   SolverOptions options_;
   Eigen::Matrix3Xd forces_, rhs_, dv_, residual_, direction_, product_, preconditioned_, prescribed_;
   Eigen::Matrix<double, 6, Eigen::Dynamic> blocks_;  ///< inverted diagonal blocks, xx yy zz xy xz yz
   Eigen::VectorXd free_;                             ///< 1 for a free particle, 0 for a constrained one
+  std::vector<double> partial_sums_;                 ///< per chunk, for the deterministic dot products
 };
 
 std::unique_ptr<Integrator> makeIntegrator(IntegratorKind kind, const SolverOptions& solver = SolverOptions());

@@ -36,6 +36,7 @@ struct OptionLimits {
   static constexpr double kMaxFriction = 10.0;
   static constexpr double kMinSolverTolerance = 1e-14;  ///< below rounding the solve cannot converge
   static constexpr int kMaxSolverIterations = 10000;
+  static constexpr int kMaxThreads = 64;
 };
 
 struct SceneOptions {
@@ -77,6 +78,10 @@ struct SceneOptions {
   IntegratorKind integrator = IntegratorKind::kImplicitEuler;
   int substeps = 1;             ///< per frame
   SolverOptions solver;         ///< implicit_euler's linear solve: tolerance and iteration cap per step
+  /// Threads for the force kernels and the solver on grids of 4096 particles or more. 1 by default: on
+  /// the 2-vCPU machines this project is measured on, a second thread made the vectorised kernels
+  /// slower, not faster (doc/BENCHMARKS.md); results are the same bits for any value.
+  int threads = 1;
   double frame_rate_hz = 50.0;  ///< frames per simulated second; one frame = 1 / frame_rate_hz s
 
   /// Texture image (PNG/JPEG path) sampled per vertex; empty: the built-in checker pattern.

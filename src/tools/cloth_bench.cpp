@@ -1,0 +1,603 @@
+// cloth_bench: times one cloth scene, ROS-free, and prints the result as ONE JSON line on stdout (progress and
+// errors go to stderr), so that scripts/bench.py can collect runs without parsing prose.
+//
+//   cloth_bench --scene hanging --rows 128 --cols 128 --integrator implicit_euler --substeps 1 --frames 100
+//               --set structural_stiffness=20000
+//   cloth_bench --bullet --rows 64 --cols 64 --substeps 10 --iterations 1 --frames 50   (built with Bullet only)
+//
+// The scene is built exactly as the node builds it: the scene file, then every override through the scene-file
+// parser (applySceneYaml) and one validation (validateSceneOptions), so a key means here what it means there.
+#include "cloth_sim/core/options.h"
+#include "cloth_sim/core/simulation.h"
+#include "cloth_sim/core/state.h"
+#include "cloth_sim/io/scene_file.h"
+
+#ifdef CLOTH_SIM_HAVE_BULLET
+#include "bullet_cloth.h"
+#endif
+
+#include <sys/resource.h>
+#include <yaml-cpp/yaml.h>
+
+#include <Eigen/Core>
+
+#include <algorithm>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <cstddef>
+#include <cstdio>
+#include <exception>
+#include <iostream>
+#include <iterator>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#ifndef CLOTH_SIM_SCENES_DIR
+#error "compile with -DCLOTH_SIM_SCENES_DIR=\"/path/to/config/scenes\""
+#endif
+
+namespace {
+
+namespace core = cloth_sim::core;
+using Clock = std::chrono::steady_clock;
+
+// ---- constants -----------------------------------------------------------------------------------------------------
+
+constexpr int kExitOk = 0;
+constexpr int kExitRunFailed = 1;  ///< the run itself threw (a bug or an out-of-memory, not a bad command line)
+constexpr int kExitUsage = 2;      ///< bad flag, unknown key, invalid value, or --bullet without Bullet
+
+constexpr int kDefaultFrames = 100;
+/// Frames run before timing starts: the first frames pay for allocations and cold caches.
+constexpr int kDefaultWarmupFrames = 5;
+constexpr int kDefaultBulletIterations = 1;
+
+/// The force-throughput loop runs at least this long and this many calls, so that one slow call (a page fault,
+/// a thread pool starting) does not decide the figure.
+constexpr double kMinThroughputSeconds = 0.3;
+constexpr int kMinThroughputCalls = 10;
+
+/// Any coordinate beyond this counts as not finite: far beyond every scene, far below overflow.
+constexpr double kFiniteBound_m = 1e300;
+
+constexpr double kMsPerS = 1e3;
+constexpr double kKibPerMib = 1024.0;
+constexpr double kMedianFraction = 0.50;
+constexpr double kP99Fraction = 0.99;
+/// Significant digits of every number in the JSON line: timings are not more precise than this.
+constexpr int kJsonDigits = 6;
+
+/// The --dynamic cloth lies flat, rows running along +y from the top edge (as bullet_cloth.h's dynamic patch).
+const Eigen::Vector3d kDynamicUAxis{1.0, 0.0, 0.0};
+const Eigen::Vector3d kDynamicVAxis{0.0, 1.0, 0.0};
+
+constexpr const char* kStructuralStiffnessKey = "structural_stiffness";
+
+constexpr const char* kUsage = R"(usage: cloth_bench [options]
+Times a cloth scene and prints one JSON line on stdout.
+
+  --scene NAME_OR_PATH   built-in scene name (resolved in --scenes-dir) or a .yaml path (default hanging)
+  --scenes-dir DIR       where built-in scenes live (default: the build's config/scenes)
+  --rows N, --cols N     grid size          (same as --set rows=N, --set cols=N)
+  --integrator NAME      integration method (same as --set integrator=NAME)
+  --substeps N           substeps per frame (same as --set substeps=N)
+  --set KEY=VALUE        any scene key, parsed as in a scene file; repeatable. --rows, --cols, --integrator,
+                         --substeps and --set apply in command-line order, after the scene file
+  --frames N             timed frames (default 100)
+  --warmup N             frames run before timing starts (default 5; not used with --bullet)
+  --dynamic              cloth starts flat at the height of its top edge, two top corners pinned, and swings
+                         down (overrides u_axis, v_axis, origin and pins after --set)
+  --bullet               run Bullet's soft-body cloth instead (only in builds with Bullet); it takes rows,
+                         cols, width, height, mass, frame_rate and substeps from the scene
+  --iterations N         Bullet's position iterations per substep (default 1; --bullet only)
+  --stop-above-strain X  end the run at the first frame whose structural strain exceeds X, that rolls back or
+                         that is not finite: the setting has failed, and a diverging frame costs the guard up
+                         to 15 times the substeps (not used with --bullet)
+  --help                 this text
+
+Strain, finiteness and rollbacks are checked on every simulated frame, warm-up included (Bullet's run checks
+all its frames too); only the timings leave the warm-up out.
+)";
+
+// ---- command line --------------------------------------------------------------------------------------------------
+
+/// One scene key to overlay, from --set or from a flag that stands for one.
+struct SceneOverride {
+  std::string flag;  ///< what the user typed it as ("--set", "--rows"), for error messages
+  std::string key;
+  std::string value;
+};
+
+/// Everything the command line says, parsed once.
+struct BenchOptions {
+  std::string scene = "hanging";
+  std::string scenes_dir = CLOTH_SIM_SCENES_DIR;
+  std::vector<SceneOverride> overrides;  ///< in command-line order
+  int frames = kDefaultFrames;
+  int warmup_frames = kDefaultWarmupFrames;
+  bool dynamic = false;
+  bool bullet = false;
+  std::optional<int> bullet_iterations;  ///< set only by --iterations
+  std::optional<double> stop_above_strain;  ///< set only by --stop-above-strain
+  bool help = false;
+};
+
+std::optional<int> parseInt(const std::string& text) {
+  int value = 0;
+  const char* end = text.data() + text.size();
+  const auto [ptr, ec] = std::from_chars(text.data(), end, value);
+  if (ec != std::errc() || ptr != end) return std::nullopt;
+  return value;
+}
+
+/// A finite number spanning the whole text (stod: libstdc++ before GCC 11 has no from_chars for double).
+std::optional<double> parseDouble(const std::string& text) {
+  try {
+    std::size_t used = 0;
+    const double value = std::stod(text, &used);
+    if (used != text.size() || !std::isfinite(value)) return std::nullopt;
+    return value;
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+/// Parses a count flag's value into *out, which must be at least `minimum`.
+void parseCount(const std::string& flag, const std::string& text, int minimum, int* out,
+                std::vector<std::string>* errors) {
+  const std::optional<int> value = parseInt(text);
+  if (!value || *value < minimum) {
+    errors->push_back(flag + " " + text + ": expected an integer >= " + std::to_string(minimum));
+    return;
+  }
+  *out = *value;
+}
+
+void parseSceneSetting(const std::string& text, BenchOptions* options, std::vector<std::string>* errors) {
+  const std::size_t equals = text.find('=');
+  if (equals == std::string::npos || equals == 0) {
+    errors->push_back("--set " + text + ": expected KEY=VALUE");
+    return;
+  }
+  options->overrides.push_back({"--set", text.substr(0, equals), text.substr(equals + 1)});
+}
+
+/// Flags that are shorthand for one scene key: {flag, key}.
+constexpr std::pair<const char*, const char*> kSceneKeyFlags[] = {
+    {"--rows", "rows"}, {"--cols", "cols"}, {"--integrator", "integrator"}, {"--substeps", "substeps"}};
+/// The other flags that take a value.
+constexpr const char* kValueFlags[] = {"--scene",      "--scenes-dir", "--set",
+                                       "--frames",     "--warmup",     "--iterations",
+                                       "--stop-above-strain"};
+
+/// The scene key a shorthand flag stands for, or nullptr.
+const char* sceneKeyOf(const std::string& flag) {
+  for (const auto& [shorthand, key] : kSceneKeyFlags) {
+    if (flag == shorthand) return key;
+  }
+  return nullptr;
+}
+
+bool takesValue(const std::string& flag) {
+  return sceneKeyOf(flag) != nullptr ||
+         std::any_of(std::begin(kValueFlags), std::end(kValueFlags), [&](const char* f) { return flag == f; });
+}
+
+/// Reads argv into *options; every problem goes to *errors.
+void parseCommandLine(int argc, char** argv, BenchOptions* options, std::vector<std::string>* errors) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string flag = argv[i];
+    if (flag == "--help" || flag == "-h") {
+      options->help = true;
+      continue;
+    }
+    if (flag == "--dynamic") {
+      options->dynamic = true;
+      continue;
+    }
+    if (flag == "--bullet") {
+      options->bullet = true;
+      continue;
+    }
+    if (!takesValue(flag)) {
+      errors->push_back("unknown option '" + flag + "' (see --help)");
+      continue;
+    }
+    if (i + 1 >= argc) {
+      errors->push_back(flag + ": missing value");
+      break;
+    }
+    const std::string value = argv[++i];
+    if (flag == "--scene") {
+      options->scene = value;
+    } else if (flag == "--scenes-dir") {
+      options->scenes_dir = value;
+    } else if (flag == "--set") {
+      parseSceneSetting(value, options, errors);
+    } else if (flag == "--frames") {
+      parseCount(flag, value, 1, &options->frames, errors);
+    } else if (flag == "--warmup") {
+      parseCount(flag, value, 0, &options->warmup_frames, errors);
+    } else if (flag == "--iterations") {
+      int iterations = 0;
+      parseCount(flag, value, 1, &iterations, errors);
+      options->bullet_iterations = iterations;
+    } else if (flag == "--stop-above-strain") {
+      const std::optional<double> strain = parseDouble(value);
+      if (!strain || *strain <= 0) errors->push_back(flag + " " + value + ": expected a number > 0");
+      options->stop_above_strain = strain;
+    } else {
+      options->overrides.push_back({flag, sceneKeyOf(flag), value});
+    }
+  }
+
+  if (options->stop_above_strain && options->bullet) {
+    errors->push_back("--stop-above-strain: Bullet's run cannot stop early (it checks its strain after the run)");
+  }
+  if (options->bullet_iterations && !options->bullet) {
+    errors->push_back(
+        "--iterations is Bullet's position iterations and needs --bullet (ours: --set solver_max_iterations=N)");
+  }
+}
+
+// ---- scene ---------------------------------------------------------------------------------------------------------
+
+/// Overlays one KEY=VALUE exactly as the node overlays a parameter: VALUE is YAML, so "20000", "[0, 1, 0]" and
+/// "implicit_euler" are a number, a list and a string as they would be in a scene file.
+void applyOverride(const SceneOverride& entry, core::SceneOptions* scene, std::vector<std::string>* errors) {
+  YAML::Node map(YAML::NodeType::Map);
+  try {
+    map[entry.key] = YAML::Load(entry.value);
+  } catch (const YAML::Exception& e) {
+    errors->push_back(entry.flag + " " + entry.key + "=" + entry.value + ": not valid YAML: " + e.what());
+    return;
+  }
+  core::applySceneYaml(map, entry.flag, scene, errors);
+}
+
+/// Lays the cloth flat at the height of its top edge, the two top corners pinned, so it swings down (the same
+/// start as bullet_cloth.h's dynamic patch: top-left corner at (-width / 2, 0, top edge height)).
+void makeDynamic(core::SceneOptions* scene) {
+  const double top_edge_z_m = scene->origin_m.z();
+  scene->u_axis = kDynamicUAxis;
+  scene->v_axis = kDynamicVAxis;
+  scene->origin_m = Eigen::Vector3d(-0.5 * scene->width_m, 0.0, top_edge_z_m);
+  scene->pins = {"top_left", "top_right"};
+}
+
+/// The scene file, then the overrides in order, then --dynamic; validated once at the end. False with every
+/// problem in *errors.
+bool buildScene(const BenchOptions& options, core::SceneOptions* scene, std::vector<std::string>* errors) {
+  if (!core::loadSceneFile(core::resolveScenePath(options.scene, options.scenes_dir), scene, errors)) return false;
+  for (const SceneOverride& entry : options.overrides) applyOverride(entry, scene, errors);
+  if (!errors->empty()) return false;
+  if (options.dynamic) makeDynamic(scene);
+  for (const std::string& problem : core::validateSceneOptions(*scene)) errors->push_back(problem);
+  return errors->empty();
+}
+
+// ---- measurements --------------------------------------------------------------------------------------------------
+
+/// What one run measured, ours or Bullet's; what a side cannot measure stays empty (JSON null).
+struct BenchResult {
+  std::string side;
+  std::string integrator;
+  std::optional<int> iterations;  ///< Bullet's position iterations
+  std::optional<double> ms_per_frame, p50_ms, p99_ms;  ///< empty when no frame was timed
+  std::optional<int> frames_timed;  ///< empty: not known (Bullet's run that blew up)
+  std::string stopped;  ///< why the run ended before its frames (--stop-above-strain); empty: it ran them all
+  double max_strain = 0;
+  bool finite = true;
+  int guard_recomputed = 0;
+  int rolled_back = 0;
+  std::optional<double> solver_iterations;  ///< mean CG iterations per integrator step
+  std::optional<double> solver_converged_fraction;  ///< of the timed frames, those whose every solve converged
+  std::optional<double> springs_per_s;
+  std::optional<long long> springs;  ///< springs (ours) or links (Bullet) in the cloth
+  double rss_mb = 0;
+  int threads = 1;
+  double stiffness = 0;  ///< ours: structural N/m; Bullet: link stiffness m_kLST in (0, 1]
+};
+
+struct FrameTimings {
+  std::optional<double> mean_ms, p50_ms, p99_ms;
+};
+
+/// Nearest-rank percentile of sorted, non-empty values (the same rule as bullet_cloth.cpp).
+double percentile(const std::vector<double>& sorted, double fraction) {
+  const auto rank = static_cast<std::size_t>(std::ceil(fraction * static_cast<double>(sorted.size())));
+  return sorted[std::min(sorted.size(), std::max<std::size_t>(rank, 1)) - 1];
+}
+
+FrameTimings summarize(std::vector<double> frame_ms) {
+  FrameTimings timings;
+  if (frame_ms.empty()) return timings;
+  double total_ms = 0;
+  for (double ms : frame_ms) total_ms += ms;
+  timings.mean_ms = total_ms / static_cast<double>(frame_ms.size());
+  std::sort(frame_ms.begin(), frame_ms.end());
+  timings.p50_ms = percentile(frame_ms, kMedianFraction);
+  timings.p99_ms = percentile(frame_ms, kP99Fraction);
+  return timings;
+}
+
+double peakRssMb() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_maxrss) / kKibPerMib;  // ru_maxrss is in KiB on Linux
+}
+
+double millisecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count() * kMsPerS;
+}
+
+/// Springs evaluated per second by one force evaluation at the current state (the kernel the integrators spend
+/// their time in, measured without the solver around it).
+double springThroughput(core::Simulation& sim) {
+  const Eigen::Matrix3Xd x = sim.state().positions_m;
+  const Eigen::Matrix3Xd v = sim.state().velocities_m_per_s;
+  const double time_s = sim.state().time_s;
+  Eigen::Matrix3Xd forces_N;
+  sim.forceModel().forces(x, v, time_s, forces_N);  // sizes the scratch outside the timed loop
+
+  long long calls = 0;
+  const Clock::time_point start = Clock::now();
+  double seconds = 0;
+  while (calls < kMinThroughputCalls || seconds < kMinThroughputSeconds) {
+    sim.forceModel().forces(x, v, time_s, forces_N);
+    ++calls;
+    seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  }
+  return static_cast<double>(calls) * static_cast<double>(sim.forceModel().springCount()) / seconds;
+}
+
+/// Why a run with --stop-above-strain should end after this frame; empty: carry on.
+std::string stopReason(const BenchOptions& options, const core::FrameReport& report, bool finite) {
+  if (!options.stop_above_strain) return "";
+  if (!finite) return "not finite";
+  if (!report.stable) return "rolled back";
+  if (report.max_strain <= *options.stop_above_strain) return "";
+  std::ostringstream reason;
+  reason << "strain " << report.max_strain << " > " << *options.stop_above_strain;
+  return reason.str();
+}
+
+/// Runs warm-up and timed frames of our simulator.
+BenchResult runOurs(const BenchOptions& options, const core::SceneOptions& scene) {
+  core::Simulation sim(scene);
+  BenchResult result;
+  result.side = "cloth_sim";
+  result.integrator = core::integratorName(scene.integrator);
+  result.stiffness = scene.springs[static_cast<int>(core::SpringKind::kStructural)].stiffness_N_per_m;
+  result.max_strain = sim.maxStructuralStrain();
+
+  std::vector<double> frame_ms;
+  frame_ms.reserve(static_cast<std::size_t>(options.frames));
+  long long solver_iterations = 0, integrator_steps = 0;
+  int converged_frames = 0;
+  const int total_frames = options.warmup_frames + options.frames;
+  for (int frame = 0; frame < total_frames; ++frame) {
+    const Clock::time_point start = Clock::now();
+    const core::FrameReport report = sim.advanceFrame();
+    const double ms = millisecondsSince(start);
+
+    // Quality counts every frame, warm-up included: a blow-up in the first frames is still a blow-up.
+    const bool finite = core::isFiniteAndBounded(sim.state(), kFiniteBound_m);
+    result.max_strain = std::max(result.max_strain, report.max_strain);
+    result.finite = result.finite && finite;
+    if (report.recomputed) ++result.guard_recomputed;
+    if (!report.stable) ++result.rolled_back;
+    if (frame >= options.warmup_frames) {
+      frame_ms.push_back(ms);
+      solver_iterations += report.steps.solver_iterations;
+      integrator_steps += report.substeps_used;
+      if (report.steps.converged) ++converged_frames;
+    }
+    result.stopped = stopReason(options, report, finite);
+    if (!result.stopped.empty()) break;
+  }
+
+  const FrameTimings timings = summarize(frame_ms);
+  result.ms_per_frame = timings.mean_ms;
+  result.p50_ms = timings.p50_ms;
+  result.p99_ms = timings.p99_ms;
+  result.frames_timed = static_cast<int>(frame_ms.size());
+  if (!frame_ms.empty()) {
+    result.solver_iterations =
+        integrator_steps > 0 ? static_cast<double>(solver_iterations) / static_cast<double>(integrator_steps) : 0.0;
+    result.solver_converged_fraction = static_cast<double>(converged_frames) / static_cast<double>(frame_ms.size());
+  }
+  result.springs_per_s = springThroughput(sim);
+  result.springs = static_cast<long long>(sim.forceModel().springCount());
+  result.threads = sim.forceModel().threads();
+  result.rss_mb = peakRssMb();
+  return result;
+}
+
+#ifdef CLOTH_SIM_HAVE_BULLET
+/// Bullet's cloth on the scene's grid, size, mass and frame rate (its pose and pins are fixed: bullet_cloth.h).
+BenchResult runBullet(const BenchOptions& options, const core::SceneOptions& scene) {
+  cloth_sim::bench::BulletClothSetup setup;
+  setup.rows = scene.rows;
+  setup.cols = scene.cols;
+  setup.width_m = scene.width_m;
+  setup.height_m = scene.height_m;
+  setup.mass_kg = scene.mass_kg;
+  setup.substeps = scene.substeps;
+  setup.position_iterations = options.bullet_iterations.value_or(kDefaultBulletIterations);
+  setup.frames = options.frames;
+  setup.frame_s = scene.frameDuration_s();
+  setup.dynamic = options.dynamic;
+  const cloth_sim::bench::BulletClothResult run = cloth_sim::bench::runBulletCloth(setup);
+
+  BenchResult result;
+  result.side = "bullet";
+  result.integrator = "bullet_pbd";
+  result.iterations = setup.position_iterations;
+  result.ms_per_frame = run.ms_per_frame;
+  result.p50_ms = run.p50_ms;
+  result.p99_ms = run.p99_ms;
+  result.max_strain = run.max_strain;
+  result.finite = run.finite;
+  // Bullet stops at the first frame that is not finite; its timings then cover fewer frames than asked for.
+  if (run.finite) {
+    result.frames_timed = setup.frames;
+  } else {
+    result.stopped = "not finite";
+  }
+  result.springs = run.links;
+  result.rss_mb = run.rss_mb;
+  result.stiffness = setup.stretch_stiffness;
+  return result;  // Bullet has no guard, no CG solve and no separate force kernel: those stay null
+}
+#endif
+
+// ---- output --------------------------------------------------------------------------------------------------------
+
+/// A flat JSON object on one line, written by hand: the tool needs no JSON library for a dozen scalar keys.
+class JsonLine {
+ public:
+  JsonLine& add(const std::string& key, const std::string& value) { return raw(key, quoted(value)); }
+  JsonLine& add(const std::string& key, const char* value) { return add(key, std::string(value)); }
+  JsonLine& add(const std::string& key, bool value) { return raw(key, value ? "true" : "false"); }
+  JsonLine& add(const std::string& key, int value) { return raw(key, std::to_string(value)); }
+  JsonLine& add(const std::string& key, long long value) { return raw(key, std::to_string(value)); }
+  JsonLine& add(const std::string& key, double value) { return raw(key, number(value)); }
+  template <typename T>
+  JsonLine& add(const std::string& key, const std::optional<T>& value) {
+    return value ? add(key, *value) : raw(key, "null");
+  }
+  std::string str() const { return "{" + body_ + "}"; }
+
+ private:
+  JsonLine& raw(const std::string& key, const std::string& json_value) {
+    if (!body_.empty()) body_ += ", ";
+    body_ += quoted(key) + ": " + json_value;
+    return *this;
+  }
+
+  /// JSON has no NaN or infinity; a quantity that is not a number is null.
+  static std::string number(double value) {
+    if (!std::isfinite(value)) return "null";
+    char buffer[32];
+    std::snprintf(buffer, sizeof(buffer), "%.*g", kJsonDigits, value);
+    return buffer;
+  }
+
+  static std::string quoted(const std::string& text) {
+    std::string out = "\"";
+    for (const char c : text) {
+      switch (c) {
+        case '"': out += "\\\""; break;
+        case '\\': out += "\\\\"; break;
+        case '\n': out += "\\n"; break;
+        case '\t': out += "\\t"; break;
+        default:
+          if (static_cast<unsigned char>(c) < 0x20) {
+            char escaped[8];
+            std::snprintf(escaped, sizeof(escaped), "\\u%04x", static_cast<unsigned>(c));
+            out += escaped;
+          } else {
+            out += c;
+          }
+      }
+    }
+    return out + "\"";
+  }
+
+  std::string body_;
+};
+
+std::string toJson(const BenchOptions& options, const core::SceneOptions& scene, const BenchResult& r) {
+  const double frame_ms = scene.frameDuration_s() * kMsPerS;
+  const std::optional<double> realtime_factor =
+      r.ms_per_frame && *r.ms_per_frame > 0 ? std::optional<double>(frame_ms / *r.ms_per_frame) : std::nullopt;
+  JsonLine json;
+  json.add("scene", scene.name)
+      .add("side", r.side)
+      .add("rows", scene.rows)
+      .add("cols", scene.cols)
+      .add("integrator", r.integrator)
+      .add("substeps", scene.substeps)
+      .add("iterations", r.iterations)
+      .add("stiffness", r.stiffness)
+      .add("dynamic", options.dynamic)
+      .add("frames", options.frames)
+      .add("warmup", options.bullet ? 0 : options.warmup_frames)
+      .add("frames_timed", r.frames_timed)
+      .add("stopped", r.stopped.empty() ? std::optional<std::string>() : std::optional<std::string>(r.stopped))
+      .add("ms_per_frame", r.ms_per_frame)
+      .add("p50_ms", r.p50_ms)
+      .add("p99_ms", r.p99_ms)
+      .add("realtime_factor", realtime_factor)
+      .add("max_strain", r.max_strain)
+      .add("finite", r.finite)
+      .add("guard_recomputed", r.guard_recomputed)
+      .add("rolled_back", r.rolled_back)
+      .add("solver_iterations", r.solver_iterations)
+      .add("solver_converged_fraction", r.solver_converged_fraction)
+      .add("springs", r.springs)
+      .add("springs_per_s", r.springs_per_s)
+      .add("rss_mb", r.rss_mb)
+      .add("threads", r.threads);
+  return json.str();
+}
+
+void printErrors(const std::vector<std::string>& errors) {
+  for (const std::string& error : errors) std::cerr << "cloth_bench: " << error << "\n";
+}
+
+std::string describeRun(const BenchOptions& options, const core::SceneOptions& scene) {
+  std::ostringstream out;
+  out << "cloth_bench: " << (options.bullet ? "bullet" : "cloth_sim") << " " << scene.name << " " << scene.rows << "x"
+      << scene.cols << (options.bullet ? "" : std::string(" ") + core::integratorName(scene.integrator))
+      << " substeps " << scene.substeps << (options.dynamic ? " dynamic" : "") << ", " << options.frames
+      << " frames";
+  return out.str();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  BenchOptions options;
+  std::vector<std::string> errors;
+  parseCommandLine(argc, argv, &options, &errors);
+  if (options.help) {
+    std::cout << kUsage;  // asked for, so on stdout (a run never prints it)
+    return errors.empty() ? kExitOk : kExitUsage;
+  }
+#ifndef CLOTH_SIM_HAVE_BULLET
+  if (options.bullet) {
+    errors.push_back("--bullet: this cloth_bench was built without Bullet (install libbullet-dev and rebuild)");
+  }
+#endif
+  if (!errors.empty()) {
+    printErrors(errors);
+    return kExitUsage;
+  }
+
+  core::SceneOptions scene;
+  if (!buildScene(options, &scene, &errors)) {
+    printErrors(errors);
+    return kExitUsage;
+  }
+
+  std::cerr << describeRun(options, scene) << "\n";
+  try {
+    BenchResult result;
+#ifdef CLOTH_SIM_HAVE_BULLET
+    result = options.bullet ? runBullet(options, scene) : runOurs(options, scene);
+#else
+    result = runOurs(options, scene);
+#endif
+    std::cout << toJson(options, scene, result) << std::endl;
+  } catch (const std::exception& e) {
+    std::cerr << "cloth_bench: run failed: " << e.what() << "\n";
+    return kExitRunFailed;
+  }
+  return kExitOk;
+}
