@@ -828,6 +828,9 @@ TEST(BadParams, ZeroSubstepsNamesTheParameterAndItsRange) {
 
 TEST(BadParams, UnknownIntegratorIsNamed) {
   expectRefused("bad_integrator", "_integrator:=bogus", {"integrator", "bogus", "rk4", "implicit_euler"});
+}
+
+TEST(BadParams, SolverCapAndThreadsOutsideTheirRangesAreNamed) {
   expectRefused("bad_solver", "_solver_max_iterations:=0", {"solver_max_iterations = 0", "[1, 10000]"});
   expectRefused("bad_threads", "_threads:=0", {"threads = 0", "[1, 64]"});
 }
