@@ -412,6 +412,10 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("max strain", simulation_->maxStructuralStrain());
   status.add("integrator", core::integratorName(simulation_->options().integrator));
   status.add("substeps", simulation_->options().substeps);
+  // implicit_euler's linear solve in the last frame: iterations per step, and whether it met its tolerance.
+  const int steps = std::max(last_report_.substeps_used, 1);
+  status.add("solver iterations per step", static_cast<double>(last_report_.steps.solver_iterations) / steps);
+  status.add("solver converged", last_report_.steps.converged);
   status.add("paused", paused_);
   unstable_frames_ = 0;
   dropped_frames_ = 0;
