@@ -174,28 +174,27 @@ void ClothForceModel::linearize(const Eigen::Matrix3Xd& positions_m, const Eigen
   }
 }
 
-void ClothForceModel::springDifferential(const SoaField& dx, double scale_x, const SoaField& dv, double scale_v,
-                                         SoaField& out) {
+void ClothForceModel::addSpringDifferential(const SoaField& w, double scale_x, double scale_v, SoaField& out) {
   const int rows = grid_.rows;
   const int cols = grid_.cols;
-  out.setZero(dx.rows(), 3);
   const ActiveFamilies& springs = linearized_families_;
   prepareRowScratch(kForceRowArrays);
 #pragma omp parallel num_threads(threads()) if (parallel())
   {
     const RowBand band = threadBand(rows);
     stencilAccumulateDifferential(rows, cols, springs.family.data(), springs.count, constView(linearized_positions_),
-                                  linearized_inverse_length_.data(), linearized_transverse_.data(), constView(dx),
-                                  scale_x, constView(dv), scale_v, view(out), threadRowScratch(), band.begin,
-                                  band.end);
+                                  linearized_inverse_length_.data(), linearized_transverse_.data(), constView(w),
+                                  scale_x, scale_v, view(out), threadRowScratch(), band.begin, band.end);
   }
 }
 
 void ClothForceModel::forceDifferential(const Eigen::Matrix3Xd& dx_m, const Eigen::Matrix3Xd& dv_m_per_s,
                                         Eigen::Matrix3Xd& df_N) {
+  result_.setZero(dx_m.cols(), 3);
   dx_ = dx_m.transpose();
-  dv_ = dv_m_per_s.transpose();
-  springDifferential(dx_, 1.0, dv_, 1.0, result_);
+  addSpringDifferential(dx_, 1.0, 0.0, result_);
+  dx_ = dv_m_per_s.transpose();
+  addSpringDifferential(dx_, 0.0, 1.0, result_);
   df_N = result_.transpose();
   df_N -= options_.air_damping_N_s_per_m * dv_m_per_s;
   for (const Grasp& grasp : inputs_.grasps) {
@@ -207,7 +206,8 @@ void ClothForceModel::forceDifferential(const Eigen::Matrix3Xd& dx_m, const Eige
 void ClothForceModel::systemProduct(double step_s, const Eigen::Matrix3Xd& w, Eigen::Matrix3Xd& out) {
   const double h = step_s;
   dx_ = w.transpose();
-  springDifferential(dx_, h * h, dx_, h, result_);
+  result_.setZero(w.cols(), 3);
+  addSpringDifferential(dx_, h * h, h, result_);
   // (M + h c_air) w - springs' dF; the grasps' springs and dampers join on their particles' diagonal.
   out = w * (mass_kg_.array() + h * options_.air_damping_N_s_per_m).matrix().asDiagonal();
   out -= result_.transpose();

@@ -69,32 +69,9 @@ CLOTH_SIM_VECTOR_CLONES void linearizeRow(int count, int offset, double ks, doub
   }
 }
 
-CLOTH_SIM_VECTOR_CLONES void differentialRow(int count, int offset, double ks, double kd_scaled, double scale_x, const double* __restrict px,
-                     const double* __restrict py, const double* __restrict pz, const double* __restrict inverse_length,
-                     const double* __restrict transverse, const double* __restrict ax, const double* __restrict ay,
-                     const double* __restrict az, const double* __restrict bx, const double* __restrict by,
-                     const double* __restrict bz, double* __restrict fx, double* __restrict fy,
-                     double* __restrict fz) {
-  for (int i = 0; i < count; ++i) {
-    const int j = i + offset;
-    const double ux = (px[j] - px[i]) * inverse_length[i];
-    const double uy = (py[j] - py[i]) * inverse_length[i];
-    const double uz = (pz[j] - pz[i]) * inverse_length[i];
-    const double dax = ax[j] - ax[i];
-    const double day = ay[j] - ay[i];
-    const double daz = az[j] - az[i];
-    const double along = scale_x * (ks - transverse[i]) * (ux * dax + uy * day + uz * daz) +
-                         kd_scaled * (ux * (bx[j] - bx[i]) + uy * (by[j] - by[i]) + uz * (bz[j] - bz[i]));
-    const double across = scale_x * transverse[i];
-    fx[i] = across * dax + along * ux;
-    fy[i] = across * day + along * uy;
-    fz[i] = across * daz + along * uz;
-  }
-}
-
-/// differentialRow for dx = dv (the backward Euler system product): one difference per spring instead
-/// of two.
-CLOTH_SIM_VECTOR_CLONES void sameDifferentialRow(int count, int offset, double ks, double kd_scaled, double scale_x,
+/// Differential spring forces of one row for the same change w in positions and velocities, scaled:
+/// scale_x (a Dw + (Ks - a) u (u . Dw)) + kd_scaled u (u . Dw).
+CLOTH_SIM_VECTOR_CLONES void differentialRow(int count, int offset, double ks, double kd_scaled, double scale_x,
                                                  const double* __restrict px, const double* __restrict py,
                                                  const double* __restrict pz, const double* __restrict inverse_length,
                                                  const double* __restrict transverse, const double* __restrict wx,
@@ -204,13 +181,11 @@ void stencilLinearize(int rows, int cols, const StencilFamily& family, ConstFiel
 
 void stencilAccumulateDifferential(int rows, int cols, const StencilFamily* families, int family_count,
                                    ConstField linearized_positions_m, const double* const* inverse_length_per_m,
-                                   const double* const* transverse_stiffness_N_per_m, ConstField dx, double scale_x,
-                                   ConstField dv, double scale_v, Field df_N, double* row_scratch, int row_begin,
-                                   int row_end) {
+                                   const double* const* transverse_stiffness_N_per_m, ConstField w, double scale_x,
+                                   double scale_v, Field df_N, double* row_scratch, int row_begin, int row_end) {
   double* const spring[3] = {row_scratch, row_scratch + cols, row_scratch + 2 * cols};
   double* const out[3] = {df_N.x, df_N.y, df_N.z};
   const ConstField& p = linearized_positions_m;
-  const bool same_field = dx.x == dv.x && dx.y == dv.y && dx.z == dv.z;
   for (int r = firstSourceRow(row_begin); r < row_end; ++r) {
     for (int f = 0; f < family_count; ++f) {
       const StencilFamily& family = families[f];
@@ -219,18 +194,10 @@ void stencilAccumulateDifferential(int rows, int cols, const StencilFamily* fami
       if (r < row_begin && r + family.dr < row_begin) continue;
       const int offset = family.offset(cols);
       const std::ptrdiff_t first = static_cast<std::ptrdiff_t>(r) * cols + range.first;
-      if (same_field) {
-        sameDifferentialRow(range.last - range.first, offset, family.stiffness_N_per_m,
-                            scale_v * family.damping_N_s_per_m, scale_x, p.x + first, p.y + first, p.z + first,
-                            inverse_length_per_m[f] + first, transverse_stiffness_N_per_m[f] + first, dx.x + first,
-                            dx.y + first, dx.z + first, spring[0], spring[1], spring[2]);
-      } else {
-        differentialRow(range.last - range.first, offset, family.stiffness_N_per_m,
-                        scale_v * family.damping_N_s_per_m, scale_x, p.x + first, p.y + first, p.z + first,
-                        inverse_length_per_m[f] + first, transverse_stiffness_N_per_m[f] + first, dx.x + first,
-                        dx.y + first, dx.z + first, dv.x + first, dv.y + first, dv.z + first, spring[0], spring[1],
-                        spring[2]);
-      }
+      differentialRow(range.last - range.first, offset, family.stiffness_N_per_m,
+                      scale_v * family.damping_N_s_per_m, scale_x, p.x + first, p.y + first, p.z + first,
+                      inverse_length_per_m[f] + first, transverse_stiffness_N_per_m[f] + first, w.x + first,
+                      w.y + first, w.z + first, spring[0], spring[1], spring[2]);
       applyRow(cols, r, range, offset, row_begin, row_end, family.dr, 3, spring, out, -1.0);
     }
   }

@@ -1,12 +1,13 @@
 #include "bullet_cloth.h"
 
+#include "bench_stats.h"
+
 #include <BulletCollision/BroadphaseCollision/btDbvtBroadphase.h>
 #include <BulletDynamics/ConstraintSolver/btSequentialImpulseConstraintSolver.h>
 #include <BulletSoftBody/btSoftBody.h>
 #include <BulletSoftBody/btSoftBodyHelpers.h>
 #include <BulletSoftBody/btSoftBodyRigidBodyCollisionConfiguration.h>
 #include <BulletSoftBody/btSoftRigidDynamicsWorld.h>
-#include <sys/resource.h>
 
 #include <algorithm>
 #include <chrono>
@@ -30,10 +31,7 @@ constexpr double kTopEdgeZ_m = 1.5;
 constexpr int kMaxParticlesPerSide = 4096;
 /// Bending links join nodes this many apart along a row or a column (our "bend" springs).
 constexpr int kBendingSpan = 2;
-constexpr double kKibPerMib = 1024.0;
 constexpr double kMsPerS = 1e3;
-constexpr double kMedianFraction = 0.50;
-constexpr double kP99Fraction = 0.99;
 
 void validate(const BulletClothSetup& s) {
   auto require = [](bool ok, const std::string& what) {
@@ -168,18 +166,6 @@ double maxStructuralStrain(const btSoftBody& cloth, const std::vector<Structural
   return max_strain;
 }
 
-/// Nearest-rank percentile of sorted, non-empty values.
-double percentile(const std::vector<double>& sorted, double fraction) {
-  const auto rank = static_cast<std::size_t>(std::ceil(fraction * static_cast<double>(sorted.size())));
-  return sorted[std::min(sorted.size(), std::max<std::size_t>(rank, 1)) - 1];
-}
-
-double peakRssMb() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  return static_cast<double>(usage.ru_maxrss) / kKibPerMib;  // ru_maxrss is in KiB on Linux
-}
-
 }  // namespace
 
 BulletClothResult runBulletCloth(const BulletClothSetup& setup) {
@@ -220,12 +206,10 @@ BulletClothResult runBulletCloth(const BulletClothSetup& setup) {
     result.max_strain = std::max(result.max_strain, maxStructuralStrain(cloth, pairs));
   }
 
-  double total_ms = 0;
-  for (double ms : frame_ms) total_ms += ms;
-  result.ms_per_frame = total_ms / static_cast<double>(frame_ms.size());
-  std::sort(frame_ms.begin(), frame_ms.end());
-  result.p50_ms = percentile(frame_ms, kMedianFraction);
-  result.p99_ms = percentile(frame_ms, kP99Fraction);
+  const FrameTimings timings = summarizeFrameTimes(frame_ms);
+  result.ms_per_frame = timings.mean_ms.value_or(0.0);
+  result.p50_ms = timings.p50_ms.value_or(0.0);
+  result.p99_ms = timings.p99_ms.value_or(0.0);
   result.rss_mb = peakRssMb();
   return result;
 }

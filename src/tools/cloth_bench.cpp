@@ -12,11 +12,11 @@
 #include "cloth_sim/core/state.h"
 #include "cloth_sim/io/scene_file.h"
 
+#include "bench_stats.h"
 #ifdef CLOTH_SIM_HAVE_BULLET
 #include "bullet_cloth.h"
 #endif
 
-#include <sys/resource.h>
 #include <yaml-cpp/yaml.h>
 
 #include <Eigen/Core>
@@ -65,9 +65,6 @@ constexpr int kMinThroughputCalls = 10;
 constexpr double kFiniteBound_m = 1e300;
 
 constexpr double kMsPerS = 1e3;
-constexpr double kKibPerMib = 1024.0;
-constexpr double kMedianFraction = 0.50;
-constexpr double kP99Fraction = 0.99;
 /// Significant digits of every number in the JSON line: timings are not more precise than this.
 constexpr int kJsonDigits = 6;
 
@@ -303,34 +300,6 @@ struct BenchResult {
   double stiffness = 0;  ///< ours: structural N/m; Bullet: link stiffness m_kLST in (0, 1]
 };
 
-struct FrameTimings {
-  std::optional<double> mean_ms, p50_ms, p99_ms;
-};
-
-/// Nearest-rank percentile of sorted, non-empty values (the same rule as bullet_cloth.cpp).
-double percentile(const std::vector<double>& sorted, double fraction) {
-  const auto rank = static_cast<std::size_t>(std::ceil(fraction * static_cast<double>(sorted.size())));
-  return sorted[std::min(sorted.size(), std::max<std::size_t>(rank, 1)) - 1];
-}
-
-FrameTimings summarize(std::vector<double> frame_ms) {
-  FrameTimings timings;
-  if (frame_ms.empty()) return timings;
-  double total_ms = 0;
-  for (double ms : frame_ms) total_ms += ms;
-  timings.mean_ms = total_ms / static_cast<double>(frame_ms.size());
-  std::sort(frame_ms.begin(), frame_ms.end());
-  timings.p50_ms = percentile(frame_ms, kMedianFraction);
-  timings.p99_ms = percentile(frame_ms, kP99Fraction);
-  return timings;
-}
-
-double peakRssMb() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  return static_cast<double>(usage.ru_maxrss) / kKibPerMib;  // ru_maxrss is in KiB on Linux
-}
-
 double millisecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count() * kMsPerS;
 }
@@ -401,7 +370,7 @@ BenchResult runOurs(const BenchOptions& options, const core::SceneOptions& scene
     if (!result.stopped.empty()) break;
   }
 
-  const FrameTimings timings = summarize(frame_ms);
+  const cloth_sim::bench::FrameTimings timings = cloth_sim::bench::summarizeFrameTimes(frame_ms);
   result.ms_per_frame = timings.mean_ms;
   result.p50_ms = timings.p50_ms;
   result.p99_ms = timings.p99_ms;
@@ -414,7 +383,7 @@ BenchResult runOurs(const BenchOptions& options, const core::SceneOptions& scene
   result.springs_per_s = springThroughput(sim);
   result.springs = static_cast<long long>(sim.forceModel().springCount());
   result.threads = sim.forceModel().threads();
-  result.rss_mb = peakRssMb();
+  result.rss_mb = cloth_sim::bench::peakRssMb();
   return result;
 }
 

@@ -73,8 +73,9 @@ class ClothForceModel final : public Dynamics {
   double* threadRowScratch();
   /// True from the particle count where threads pay (src/core/parallel.h).
   bool parallel() const;
-  /// Spring differential of every switched-on family: out = springs' dF for (scale_x dx, scale_v dv).
-  void springDifferential(const SoaField& dx, double scale_x, const SoaField& dv, double scale_v, SoaField& out);
+  /// Adds the springs' differential for the change w in positions (times scale_x) and velocities (times
+  /// scale_v) to out.
+  void addSpringDifferential(const SoaField& w, double scale_x, double scale_v, SoaField& out);
 
   const ClothGrid& grid_;
   const SceneOptions& options_;
@@ -84,7 +85,7 @@ class ClothForceModel final : public Dynamics {
   std::array<double, kStencilFamilies.size()> rest_length_m_{};  ///< per family, from the rest grid
 
   // Scratch, reused across calls (sized on first use).
-  SoaField positions_, velocities_, result_, dx_, dv_;
+  SoaField positions_, velocities_, result_, dx_;
   Eigen::MatrixXd row_scratch_;  ///< one column per thread: a few grid rows of per-spring values
   Eigen::Matrix<double, Eigen::Dynamic, 6> block_sums_;
   // The linearisation (written by linearize), per switched-on family.

@@ -70,15 +70,15 @@ void stencilLinearize(int rows, int cols, const StencilFamily& family, ConstFiel
                       double* inverse_length_per_m, double* transverse_stiffness_N_per_m, int row_begin,
                       int row_end);
 
-/// Differential spring forces, N, for a position change dx and a velocity change dv: on particle i,
-/// scale_x (a Ddx + (Ks - a) u (u . Ddx)) + scale_v Kd u (u . Ddv) with a the transverse stiffness,
-/// Ddx = dx_j - dx_i, u from the linearised positions; the opposite on j. Per-family linearisation arrays
-/// are indexed as `families`.
+/// Differential spring forces, N, for the same change w applied to positions (scaled by scale_x) and
+/// velocities (scaled by scale_v): on particle i, scale_x (a Dw + (Ks - a) u (u . Dw)) + scale_v Kd u
+/// (u . Dw) with a the transverse stiffness, Dw = w_j - w_i, u from the linearised positions; the opposite
+/// on j. Added to df_N. Per-family linearisation arrays are indexed as `families`. The backward Euler
+/// system product takes (h^2, h); dF/dx dx alone (1, 0); dF/dv dv alone (0, 1).
 void stencilAccumulateDifferential(int rows, int cols, const StencilFamily* families, int family_count,
                                    ConstField linearized_positions_m, const double* const* inverse_length_per_m,
-                                   const double* const* transverse_stiffness_N_per_m, ConstField dx, double scale_x,
-                                   ConstField dv, double scale_v, Field df_N, double* row_scratch, int row_begin,
-                                   int row_end);
+                                   const double* const* transverse_stiffness_N_per_m, ConstField w, double scale_x,
+                                   double scale_v, Field df_N, double* row_scratch, int row_begin, int row_end);
 
 /// The springs' part of the 3x3 diagonal blocks: scale_x (a I + (Ks - a) u u^T) + scale_v Kd u u^T added
 /// to both ends' blocks, six arrays (xx, yy, zz, xy, xz, yz).
