@@ -72,8 +72,8 @@ ClothForceModel::ActiveFamilies ClothForceModel::activeFamilies() const {
   return active;
 }
 
-void ClothForceModel::prepareRowScratch(int arrays) {
-  row_scratch_.resize(static_cast<Eigen::Index>(arrays) * grid_.cols, threads());
+void ClothForceModel::prepareRowScratch() {
+  row_scratch_.resize(static_cast<Eigen::Index>(kRowScratchArrays) * grid_.cols, threads());
 }
 
 double* ClothForceModel::threadRowScratch() {
@@ -116,7 +116,11 @@ void ClothForceModel::enforceConstraints(double time_s, ClothState& state) const
 std::size_t ClothForceModel::springCount() const {
   std::size_t count = 0;
   for (int k = 0; k < kSpringKindCount; ++k) {
-    if (options_.springs[k].enabled) count += grid_.springs[k].size();
+    const SpringOptions& spring = options_.springs[k];
+    // As activeFamilies: a kind with neither stiffness nor damping is skipped, so it is not counted.
+    if (spring.enabled && (spring.stiffness_N_per_m != 0.0 || spring.damping_N_s_per_m != 0.0)) {
+      count += grid_.springs[k].size();
+    }
   }
   return count;
 }
@@ -131,7 +135,7 @@ void ClothForceModel::forces(const Eigen::Matrix3Xd& positions_m, const Eigen::M
   velocities_ = velocities_m_per_s.transpose();
   result_.setZero(positions_m.cols(), 3);
   const ActiveFamilies springs = activeFamilies();
-  prepareRowScratch(kForceRowArrays);
+  prepareRowScratch();
 #pragma omp parallel num_threads(threads()) if (parallel())
   {
     const RowBand band = threadBand(rows);
@@ -178,7 +182,7 @@ void ClothForceModel::addSpringDifferential(const SoaField& w, double scale_x, d
   const int rows = grid_.rows;
   const int cols = grid_.cols;
   const ActiveFamilies& springs = linearized_families_;
-  prepareRowScratch(kForceRowArrays);
+  prepareRowScratch();
 #pragma omp parallel num_threads(threads()) if (parallel())
   {
     const RowBand band = threadBand(rows);
@@ -203,6 +207,14 @@ void ClothForceModel::forceDifferential(const Eigen::Matrix3Xd& dx_m, const Eige
   }
 }
 
+void ClothForceModel::stiffnessProduct(const Eigen::Matrix3Xd& dx_m, Eigen::Matrix3Xd& df_N) {
+  result_.setZero(dx_m.cols(), 3);
+  dx_ = dx_m.transpose();
+  addSpringDifferential(dx_, 1.0, 0.0, result_);
+  df_N = result_.transpose();
+  for (const Grasp& grasp : inputs_.grasps) df_N.col(grasp.particle) -= grasp.stiffness_N_per_m * dx_m.col(grasp.particle);
+}
+
 void ClothForceModel::systemProduct(double step_s, const Eigen::Matrix3Xd& w, Eigen::Matrix3Xd& out) {
   const double h = step_s;
   dx_ = w.transpose();
@@ -224,7 +236,7 @@ void ClothForceModel::systemDiagonalBlocks(double step_s, Eigen::Matrix<double, 
   double* sums[6];
   for (int e = 0; e < 6; ++e) sums[e] = block_sums_.col(e).data();
   const ActiveFamilies& springs = linearized_families_;
-  prepareRowScratch(kBlockRowArrays);
+  prepareRowScratch();
 #pragma omp parallel num_threads(threads()) if (parallel())
   {
     const RowBand band = threadBand(rows);

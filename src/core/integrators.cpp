@@ -12,6 +12,11 @@ void Dynamics::acceleration(const Eigen::Matrix3Xd& positions_m, const Eigen::Ma
   accelerations_m_per_s2 = accelerations_m_per_s2 * inverseMass_per_kg().asDiagonal();
 }
 
+void Dynamics::stiffnessProduct(const Eigen::Matrix3Xd& dx_m, Eigen::Matrix3Xd& df_N) {
+  differential_scratch_.setZero(3, dx_m.cols());
+  forceDifferential(dx_m, differential_scratch_, df_N);
+}
+
 void Dynamics::systemProduct(double step_s, const Eigen::Matrix3Xd& w, Eigen::Matrix3Xd& out) {
   scaled_scratch_ = (step_s * step_s) * w;
   differential_scratch_ = step_s * w;
@@ -177,8 +182,7 @@ StepReport ImplicitEuler::step(Dynamics& dynamics, double step_s, ClothState& st
   // Right-hand side h (F0 + h dF/dx v0), filtered.
   free_ = (dynamics.inverseMass_per_kg().array() > 0.0).cast<double>();
   direction_ = h * v0;
-  residual_.setZero(3, count);
-  dynamics.forceDifferential(direction_, residual_, product_);  // h dF/dx v0
+  dynamics.stiffnessProduct(direction_, product_);  // h dF/dx v0
   rhs_ = h * (forces_ + product_);
 
   // Free particles start from dv = 0. Conjugate gradients started at zero grow the solution's energy

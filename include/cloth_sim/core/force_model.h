@@ -45,6 +45,7 @@ class ClothForceModel final : public Dynamics {
                  double time_s) override;
   void forceDifferential(const Eigen::Matrix3Xd& dx_m, const Eigen::Matrix3Xd& dv_m_per_s,
                          Eigen::Matrix3Xd& df_N) override;
+  void stiffnessProduct(const Eigen::Matrix3Xd& dx_m, Eigen::Matrix3Xd& df_N) override;
   void systemProduct(double step_s, const Eigen::Matrix3Xd& w, Eigen::Matrix3Xd& out) override;
   void systemDiagonalBlocks(double step_s, Eigen::Matrix<double, 6, Eigen::Dynamic>& blocks) override;
 
@@ -62,13 +63,13 @@ class ClothForceModel final : public Dynamics {
     std::array<StencilFamily, kStencilFamilies.size()> family{};
     int count = 0;
   };
-  /// Row scratch arrays per thread: 3 for forces and differentials, 6 for the diagonal blocks.
-  static constexpr int kForceRowArrays = 3;
-  static constexpr int kBlockRowArrays = 6;
+  /// Row scratch arrays per thread: 3 for forces and differentials, 6 for the diagonal blocks (sized
+  /// for the larger once, so no call reallocates).
+  static constexpr int kRowScratchArrays = 6;
 
   ActiveFamilies activeFamilies() const;
-  /// Sizes the per-thread row scratch for `arrays` arrays of one grid row each.
-  void prepareRowScratch(int arrays);
+  /// Sizes the per-thread row scratch (kRowScratchArrays grid rows per thread).
+  void prepareRowScratch();
   /// This thread's row scratch (inside or outside a parallel region).
   double* threadRowScratch();
   /// True from the particle count where threads pay (src/core/parallel.h).

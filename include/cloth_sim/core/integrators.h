@@ -35,6 +35,9 @@ class Dynamics {
   /// df = dF/dx dx + dF/dv dv, N, matrix-free (3 x N each).
   virtual void forceDifferential(const Eigen::Matrix3Xd& dx_m, const Eigen::Matrix3Xd& dv_m_per_s,
                                  Eigen::Matrix3Xd& df_N) = 0;
+  /// df = dF/dx dx alone. The default goes through forceDifferential with dv = 0; a model may skip the
+  /// velocity part.
+  virtual void stiffnessProduct(const Eigen::Matrix3Xd& dx_m, Eigen::Matrix3Xd& df_N);
   /// out = (M - h dF/dv - h^2 dF/dx) w: the backward Euler system matrix times w. The default goes
   /// through forceDifferential; a model may fuse it.
   virtual void systemProduct(double step_s, const Eigen::Matrix3Xd& w, Eigen::Matrix3Xd& out);
@@ -144,17 +147,15 @@ class RK4 final : public Integrator {
 /// solved matrix-free by conjugate gradients with a block-Jacobi (3x3 per particle) preconditioner and
 /// Baraff and Witkin's constraint filter: a constrained particle's dv is fixed so that it lands exactly
 /// where Dynamics::constrainedPositions puts it at t + h (pins, moving pins, hooked pins), and its rows
-/// are filtered out of every residual and search direction. The solve starts from explicit Euler's dv
-/// (h F0 / m), which depends on the state alone, so a restored snapshot re-runs bit for bit.
-/// Unconditionally stable on the linearised system; it damps, so energy never grows without forcing.
-/// First order.
+/// are filtered out of every residual and search direction. The solve starts from dv = 0 (a capped solve
+/// then never adds energy, and a restored snapshot re-runs bit for bit). Unconditionally stable on the
+/// linearised system; it damps, so energy never grows without forcing. First order.
 class ImplicitEuler final : public Integrator {
  public:
   explicit ImplicitEuler(const SolverOptions& options = SolverOptions()) : options_(options) {}
   IntegratorKind kind() const override { return IntegratorKind::kImplicitEuler; }
   int order() const override { return 1; }
   StepReport step(Dynamics& dynamics, double step_s, ClothState& state) override;
-  void setOptions(const SolverOptions& options) { options_ = options; }
 
  private:
   /// out = P^-1 r with the inverted 3x3 diagonal blocks, zero on constrained particles, for particles

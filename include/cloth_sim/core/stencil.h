@@ -22,7 +22,6 @@ struct Field {
   double* x;
   double* y;
   double* z;
-  operator ConstField() const { return {x, y, z}; }
 };
 
 /// One spring family on a rows x cols grid: (r, c) -> (r + dr, c + dc), dr >= 0, and dc > 0 when dr = 0.
