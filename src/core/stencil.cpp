@@ -138,16 +138,25 @@ void applyRow(int cols, int row, ColumnRange range, int offset, int row_begin, i
   }
 }
 
+/// Most row-scratch arrays a kernel uses: the six entries of a symmetric 3x3 block.
+constexpr int kMaxRowArrays = 6;
+
 /// Rows whose springs may end in the band: two more above it (the bend springs reach two rows down).
 int firstSourceRow(int row_begin) { return std::max(0, row_begin - 2); }
 
 }  // namespace
 
-void stencilAccumulateSpringForces(int rows, int cols, const StencilFamily* families, int family_count,
-                                   ConstField positions_m, ConstField velocities_m_per_s, Field forces_N,
-                                   double* row_scratch, int row_begin, int row_end) {
-  double* const spring[3] = {row_scratch, row_scratch + cols, row_scratch + 2 * cols};
-  double* const out[3] = {forces_N.x, forces_N.y, forces_N.z};
+namespace {
+
+/// The rows of springs that can end in the band [row_begin, row_end), family by family: computeRow(f,
+/// family, count, offset, first) fills `arrays` row-scratch arrays for the `count` springs starting at
+/// particle index `first`, which are then added to both ends (sign_second on the second) within the band.
+template <typename ComputeRow>
+void accumulateBand(int rows, int cols, const StencilFamily* families, int family_count, int arrays,
+                    double* row_scratch, double* const* out, double sign_second, int row_begin, int row_end,
+                    ComputeRow compute_row) {
+  double* spring[kMaxRowArrays];
+  for (int a = 0; a < arrays; ++a) spring[a] = row_scratch + static_cast<std::ptrdiff_t>(a) * cols;
   for (int r = firstSourceRow(row_begin); r < row_end; ++r) {
     for (int f = 0; f < family_count; ++f) {
       const StencilFamily& family = families[f];
@@ -156,13 +165,26 @@ void stencilAccumulateSpringForces(int rows, int cols, const StencilFamily* fami
       if (r < row_begin && r + family.dr < row_begin) continue;  // ends above the band
       const int offset = family.offset(cols);
       const std::ptrdiff_t first = static_cast<std::ptrdiff_t>(r) * cols + range.first;
-      springForceRow(range.last - range.first, offset, family.stiffness_N_per_m, family.damping_N_s_per_m,
-                     family.rest_length_m, positions_m.x + first, positions_m.y + first, positions_m.z + first,
-                     velocities_m_per_s.x + first, velocities_m_per_s.y + first, velocities_m_per_s.z + first,
-                     spring[0], spring[1], spring[2]);
-      applyRow(cols, r, range, offset, row_begin, row_end, family.dr, 3, spring, out, -1.0);
+      compute_row(f, family, range.last - range.first, offset, first, spring);
+      applyRow(cols, r, range, offset, row_begin, row_end, family.dr, arrays, spring, out, sign_second);
     }
   }
+}
+
+}  // namespace
+
+void stencilAccumulateSpringForces(int rows, int cols, const StencilFamily* families, int family_count,
+                                   ConstField positions_m, ConstField velocities_m_per_s, Field forces_N,
+                                   double* row_scratch, int row_begin, int row_end) {
+  double* const out[3] = {forces_N.x, forces_N.y, forces_N.z};
+  const ConstField& x = positions_m;
+  const ConstField& v = velocities_m_per_s;
+  accumulateBand(rows, cols, families, family_count, 3, row_scratch, out, -1.0, row_begin, row_end,
+                 [&](int, const StencilFamily& family, int count, int offset, std::ptrdiff_t first, double** spring) {
+                   springForceRow(count, offset, family.stiffness_N_per_m, family.damping_N_s_per_m,
+                                  family.rest_length_m, x.x + first, x.y + first, x.z + first, v.x + first,
+                                  v.y + first, v.z + first, spring[0], spring[1], spring[2]);
+                 });
 }
 
 void stencilLinearize(int rows, int cols, const StencilFamily& family, ConstField positions_m,
@@ -183,48 +205,29 @@ void stencilAccumulateDifferential(int rows, int cols, const StencilFamily* fami
                                    ConstField linearized_positions_m, const double* const* inverse_length_per_m,
                                    const double* const* transverse_stiffness_N_per_m, ConstField w, double scale_x,
                                    double scale_v, Field df_N, double* row_scratch, int row_begin, int row_end) {
-  double* const spring[3] = {row_scratch, row_scratch + cols, row_scratch + 2 * cols};
   double* const out[3] = {df_N.x, df_N.y, df_N.z};
   const ConstField& p = linearized_positions_m;
-  for (int r = firstSourceRow(row_begin); r < row_end; ++r) {
-    for (int f = 0; f < family_count; ++f) {
-      const StencilFamily& family = families[f];
-      const ColumnRange range = springColumns(rows, cols, family, r);
-      if (range.last <= range.first) continue;
-      if (r < row_begin && r + family.dr < row_begin) continue;
-      const int offset = family.offset(cols);
-      const std::ptrdiff_t first = static_cast<std::ptrdiff_t>(r) * cols + range.first;
-      differentialRow(range.last - range.first, offset, family.stiffness_N_per_m,
-                      scale_v * family.damping_N_s_per_m, scale_x, p.x + first, p.y + first, p.z + first,
-                      inverse_length_per_m[f] + first, transverse_stiffness_N_per_m[f] + first, w.x + first,
-                      w.y + first, w.z + first, spring[0], spring[1], spring[2]);
-      applyRow(cols, r, range, offset, row_begin, row_end, family.dr, 3, spring, out, -1.0);
-    }
-  }
+  accumulateBand(rows, cols, families, family_count, 3, row_scratch, out, -1.0, row_begin, row_end,
+                 [&](int f, const StencilFamily& family, int count, int offset, std::ptrdiff_t first, double** spring) {
+                   differentialRow(count, offset, family.stiffness_N_per_m, scale_v * family.damping_N_s_per_m,
+                                   scale_x, p.x + first, p.y + first, p.z + first, inverse_length_per_m[f] + first,
+                                   transverse_stiffness_N_per_m[f] + first, w.x + first, w.y + first, w.z + first,
+                                   spring[0], spring[1], spring[2]);
+                 });
 }
 
 void stencilAccumulateBlocks(int rows, int cols, const StencilFamily* families, int family_count,
                              ConstField linearized_positions_m, const double* const* inverse_length_per_m,
                              const double* const* transverse_stiffness_N_per_m, double scale_x, double scale_v,
                              double* const* blocks, double* row_scratch, int row_begin, int row_end) {
-  double* const spring[6] = {row_scratch,           row_scratch + cols,     row_scratch + 2 * cols,
-                             row_scratch + 3 * cols, row_scratch + 4 * cols, row_scratch + 5 * cols};
   const ConstField& p = linearized_positions_m;
-  for (int r = firstSourceRow(row_begin); r < row_end; ++r) {
-    for (int f = 0; f < family_count; ++f) {
-      const StencilFamily& family = families[f];
-      const ColumnRange range = springColumns(rows, cols, family, r);
-      if (range.last <= range.first) continue;
-      if (r < row_begin && r + family.dr < row_begin) continue;
-      const int offset = family.offset(cols);
-      const std::ptrdiff_t first = static_cast<std::ptrdiff_t>(r) * cols + range.first;
-      blockRow(range.last - range.first, offset, family.stiffness_N_per_m, scale_v * family.damping_N_s_per_m,
-               scale_x, p.x + first, p.y + first, p.z + first, inverse_length_per_m[f] + first,
-               transverse_stiffness_N_per_m[f] + first, spring[0], spring[1], spring[2], spring[3], spring[4],
-               spring[5]);
-      applyRow(cols, r, range, offset, row_begin, row_end, family.dr, 6, spring, blocks, 1.0);
-    }
-  }
+  accumulateBand(rows, cols, families, family_count, kMaxRowArrays, row_scratch, blocks, 1.0, row_begin, row_end,
+                 [&](int f, const StencilFamily& family, int count, int offset, std::ptrdiff_t first, double** spring) {
+                   blockRow(count, offset, family.stiffness_N_per_m, scale_v * family.damping_N_s_per_m, scale_x,
+                            p.x + first, p.y + first, p.z + first, inverse_length_per_m[f] + first,
+                            transverse_stiffness_N_per_m[f] + first, spring[0], spring[1], spring[2], spring[3],
+                            spring[4], spring[5]);
+                 });
 }
 
 }  // namespace cloth_sim::core
