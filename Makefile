@@ -2,7 +2,8 @@
 #
 #   make deps    install the Debian packages below that are missing (apt-get runs only if one is)
 #   make build   catkin_make in a private workspace outside the repo: $(WS) (override: make build WS=...)
-#   make test    build, run every gtest and rostest, print the failing cases and "N passed, N failed"
+#   make test    build, run every gtest and rostest (and catkin_lint), print the failing cases and
+#                "N passed, N failed"
 #   make demo    build, run cloth.launch headless for DEMO_SECONDS s recording a bag, render the last mesh
 #                to a PNG and print the mesh publish rate (make demo SCENE=flag)
 #   make bench   build, then time cloth_sim against Bullet's soft-body cloth at 20, 64, 128 and 256
@@ -30,7 +31,7 @@ DEB_PACKAGES := build-essential cmake pkg-config \
   libgtest-dev topic-tools python3-rospy rviz \
   python3-std-msgs python3-geometry-msgs python3-visualization-msgs python3-diagnostic-msgs \
   python3-rosgraph-msgs python3-std-srvs python3-tf2-msgs \
-  libbullet-dev
+  libbullet-dev catkin-lint
 # libbullet-dev above is for cloth_bench's --bullet comparison only (not a run or build dependency of
 # the package: package.xml does not list it).
 # Only `make pictures` needs these (rviz screenshots under Xvfb with ImageMagick's import).
@@ -103,6 +104,8 @@ test: build
 	@rm -rf $(WS)/build/test_results/cloth_sim
 	@rc=0; (cd $(WS) && $(CATKIN_MAKE) -j1 run_tests_cloth_sim 2>&1 | $(FILTER_CMAKE)) || rc=$$?; \
 	if [ $$rc != 0 ]; then echo "test: catkin_make run_tests_cloth_sim exited with $$rc"; fi; \
+	/usr/bin/python3 $(REPO)/scripts/catkin_lint_junit.py $(REPO) $(WS)/build/test_results/cloth_sim/lint-catkin_lint.xml \
+	  || rc=1; \
 	/usr/bin/python3 $(REPO)/scripts/test_summary.py $(WS)/build/test_results/cloth_sim \
 	  --ctest-file $(WS)/build/cloth_sim/CTestTestfile.cmake || rc=1; \
 	exit $$rc
