@@ -140,6 +140,18 @@ void checkMesh(const std::string& node, const std::string& frame_id, std::uint32
 
 // ---- 1. Mesh content (mesh_rate.test; the rate itself is the hztest there) ------------------------
 
+TEST(LaunchArgs, RowsColsIntegratorAndSubstepsReachTheNode) {
+  ros::NodeHandle nh;
+  Monitor<ClothState> states(nh, nodeTopic("state"));
+  const ClothState::ConstPtr state = states.waitForNext(20.0, 0);
+  ASSERT_TRUE(state) << "no ClothState on " << nodeTopic("state");
+  ros::NodeHandle expected("~");
+  EXPECT_EQ(state->rows, static_cast<std::uint32_t>(expected.param("rows", 0)));
+  EXPECT_EQ(state->cols, static_cast<std::uint32_t>(expected.param("cols", 0)));
+  EXPECT_EQ(state->integrator, expected.param<std::string>("integrator", ""));
+  EXPECT_EQ(state->substeps, static_cast<std::uint32_t>(expected.param("substeps", 0)));
+}
+
 TEST(Mesh, TriangleListOfFiniteColouredPointsInFrameId) {
   ros::NodeHandle pnh("~");
   int rows = 0;
