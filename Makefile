@@ -2,8 +2,8 @@
 #
 #   make deps    install the Debian packages below that are missing (apt-get runs only if one is)
 #   make build   catkin_make in a private workspace outside the repo: $(WS) (override: make build WS=...)
-#   make test    build, run every gtest and rostest (and catkin_lint), print the failing cases and
-#                "N passed, N failed"
+#   make test    build, run every gtest and rostest, catkin_lint, and a downstream build of
+#                examples/cloth_sim_example; print the failing cases and "N passed, N failed"
 #   make demo    build, run cloth.launch headless for DEMO_SECONDS s recording a bag, render the last mesh
 #                to a PNG and print the mesh publish rate (make demo SCENE=flag)
 #   make bench   build, then time cloth_sim against Bullet's soft-body cloth at 20, 64, 128 and 256
@@ -106,6 +106,8 @@ test: build
 	if [ $$rc != 0 ]; then echo "test: catkin_make run_tests_cloth_sim exited with $$rc"; fi; \
 	/usr/bin/python3 $(REPO)/scripts/catkin_lint_junit.py $(REPO) $(WS)/build/test_results/cloth_sim/lint-catkin_lint.xml \
 	  || rc=1; \
+	bash $(REPO)/scripts/build_example.sh $(WS)/devel $(WS)-example \
+	  $(WS)/build/test_results/cloth_sim/example-downstream.xml || rc=1; \
 	/usr/bin/python3 $(REPO)/scripts/test_summary.py $(WS)/build/test_results/cloth_sim \
 	  --ctest-file $(WS)/build/cloth_sim/CTestTestfile.cmake || rc=1; \
 	exit $$rc
@@ -124,4 +126,4 @@ pictures: demo
 	@bash -c 'source $(WS)/devel/setup.bash && exec bash $(REPO)/scripts/make_pictures.sh $(REPO)/doc/images $(SCENES)'
 
 clean:
-	rm -rf $(WS) $(DEMO_DIR)
+	rm -rf $(WS) $(WS)-example $(DEMO_DIR)
