@@ -1,6 +1,7 @@
 #!/bin/bash
-# Headless demo: run cloth.launch with recording for a few seconds, stop it with SIGINT (as Ctrl-C would,
-# so rosbag closes the bag), render the last mesh to a PNG and print the mesh publish rate.
+# Headless demo: run cloth.launch with recording (the mesh too: it is what gets drawn) for a few seconds,
+# stop it with SIGINT (as Ctrl-C would, so rosbag closes the bag), render the last mesh to a PNG and print
+# the mesh publish rate.
 #
 #   scripts/demo.sh WORKSPACE [SCENE] [SECONDS] [OUTDIR]
 #
@@ -41,7 +42,7 @@ echo "==> demo: roslaunch cloth_sim cloth.launch scene:=$scene record:=true for 
 echo "    log: $log"
 set +e
 timeout -s INT -k 30 "$seconds" roslaunch -p "$port" cloth_sim cloth.launch \
-  scene:="$scene" rviz:=false record:=true bag:="$bag" >"$log" 2>&1 </dev/null
+  scene:="$scene" rviz:=false record:=true record_mesh:=true bag:="$bag" >"$log" 2>&1 </dev/null
 rc=$?
 set -e
 if [ "$rc" -ne 124 ]; then

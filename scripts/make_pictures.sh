@@ -22,7 +22,7 @@ trap 'kill $(jobs -p) 2>/dev/null || true; rm -rf "$workdir"' EXIT
 for scene in "${scenes[@]}"; do
   bag=$workdir/$scene.bag
   echo "==> pictures: $scene (${SECONDS_PER_SCENE} s)"
-  roslaunch -p "$port" cloth_sim cloth.launch scene:="$scene" record:=true bag:="$bag" >"$workdir/$scene.log" 2>&1 &
+  roslaunch -p "$port" cloth_sim cloth.launch scene:="$scene" record:=true record_mesh:=true bag:="$bag" >"$workdir/$scene.log" 2>&1 &
   launch=$!
   sleep "$SECONDS_PER_SCENE"
   kill -INT "$launch"

@@ -17,7 +17,7 @@ namespace {
 
 /// Private parameters that belong to the node rather than to the scene.
 const std::set<std::string>& nodeOnlyParameters() {
-  static const std::set<std::string> names{Names::kSceneParam, Names::kFrameIdParam,
+  static const std::set<std::string> names{Names::kSceneParam, Names::kFrameIdParam, Names::kMeshRateParam,
                                            Names::kTuningNamespace};
   return names;
 }
@@ -31,6 +31,8 @@ std::string join(const std::vector<std::string>& parts, const std::string& separ
 /// Timer jitter: a frame counts as due this much before its exact time, in frames.
 constexpr double kFrameDueTolerance = 1e-6;
 constexpr double kWarnThrottle_s = 5.0;
+/// A mesh counts as due this fraction of a frame before its period is up (timer ticks jitter).
+constexpr double kMeshPeriodTolerance = 0.5;
 constexpr double kMillisecondsPerSecond = 1000.0;
 
 }  // namespace
@@ -50,6 +52,15 @@ bool ClothNode::start(std::string* error) {
   std::unique_ptr<core::Simulation> simulation = buildSimulation(scene, true, error);
   if (!simulation) return false;
   simulation_ = std::move(simulation);
+  // The mesh is the heavy message (each vertex six times, with colours): a viewer may want it less often.
+  double mesh_rate_hz = simulation_->options().frame_rate_hz;
+  pnh_.param<double>(Names::kMeshRateParam, mesh_rate_hz, mesh_rate_hz);
+  if (!std::isfinite(mesh_rate_hz) || mesh_rate_hz <= 0.0 || mesh_rate_hz > core::OptionLimits::kMaxFrameRateHz) {
+    *error = "parameter ~mesh_rate = " + std::to_string(mesh_rate_hz) + ": must be in (0, " +
+             std::to_string(core::OptionLimits::kMaxFrameRateHz) + "] Hz";
+    return false;
+  }
+  mesh_period_s_ = 1.0 / mesh_rate_hz;
 
   mesh_pub_ = pnh_.advertise<visualization_msgs::Marker>(Names::kMeshTopic, 2);
   state_pub_ = pnh_.advertise<cloth_sim::ClothState>(Names::kStateTopic, 2);
@@ -198,7 +209,15 @@ void ClothNode::publish(const ros::Time& stamp) {
     ROS_ERROR_THROTTLE(kWarnThrottle_s, "cloth_node: state is not finite; not publishing");
     return;
   }
-  if (mesh_pub_.getNumSubscribers() > 0) mesh_pub_.publish(toMeshMarker(*simulation_, frame_id_, stamp));
+  // A mesh is due once a mesh period has passed since the last one (a frame's worth of timer jitter
+  // early counts as on time); time running backwards (a looping /clock) makes one due at once.
+  const double since_mesh_s = (stamp - last_mesh_).toSec();
+  const bool mesh_due = last_mesh_.isZero() || since_mesh_s < 0.0 ||
+                        since_mesh_s >= mesh_period_s_ - kMeshPeriodTolerance * simulation_->options().frameDuration_s();
+  if (mesh_due && mesh_pub_.getNumSubscribers() > 0) {
+    mesh_pub_.publish(toMeshMarker(*simulation_, frame_id_, stamp));
+    last_mesh_ = stamp;
+  }
   if (state_pub_.getNumSubscribers() > 0) state_pub_.publish(toStateMessage(*simulation_, frame_id_, stamp));
   if (colliders_pub_.getNumSubscribers() > 0 && !simulation_->options().colliders.empty()) {
     colliders_pub_.publish(toColliderMarkers(*simulation_, frame_id_, stamp));

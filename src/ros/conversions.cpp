@@ -100,6 +100,12 @@ visualization_msgs::MarkerArray toColliderMarkers(const core::Simulation& simula
 
 visualization_msgs::Marker toMeshMarker(const core::Simulation& simulation, const std::string& frame_id,
                                         const ros::Time& stamp) {
+  return toMeshMarker(simulation.grid(), simulation.state().positions_m, simulation.vertexColors(), frame_id, stamp);
+}
+
+visualization_msgs::Marker toMeshMarker(const core::ClothGrid& grid, const Eigen::Matrix3Xd& positions_m,
+                                        const Eigen::Matrix3Xf& colors, const std::string& frame_id,
+                                        const ros::Time& stamp) {
   visualization_msgs::Marker marker;
   marker.header = header(frame_id, stamp);
   marker.ns = "cloth";
@@ -109,16 +115,41 @@ visualization_msgs::Marker toMeshMarker(const core::Simulation& simulation, cons
   marker.pose.orientation.w = 1.0;
   marker.scale.x = marker.scale.y = marker.scale.z = 1.0;  // TRIANGLE_LIST points are in metres as given
   marker.color.a = 1.0f;
-  const std::vector<int>& triangles = simulation.grid().triangles;
-  const Eigen::Matrix3Xd& positions = simulation.state().positions_m;
-  const Eigen::Matrix3Xf& colors = simulation.vertexColors();
-  marker.points.reserve(triangles.size());
-  marker.colors.reserve(triangles.size());
-  for (int index : triangles) {
-    marker.points.push_back(toPoint(positions.col(index)));
+  marker.points.reserve(grid.triangles.size());
+  marker.colors.reserve(grid.triangles.size());
+  for (int index : grid.triangles) {
+    marker.points.push_back(toPoint(positions_m.col(index)));
     marker.colors.push_back(toColor(colors.col(index)));
   }
   return marker;
+}
+
+bool fromStateMessage(const cloth_sim::ClothState& message, int max_side, Eigen::Matrix3Xd* positions_m,
+                      std::string* error) {
+  const auto side_ok = [max_side](std::uint32_t side) {
+    return side >= 2 && side <= static_cast<std::uint32_t>(max_side);
+  };
+  if (!side_ok(message.rows) || !side_ok(message.cols)) {
+    *error = "rows x cols = " + std::to_string(message.rows) + " x " + std::to_string(message.cols) +
+             ": each must be in [2, " + std::to_string(max_side) + "]";
+    return false;
+  }
+  const std::size_t count = static_cast<std::size_t>(message.rows) * message.cols;
+  if (message.positions.size() != count) {
+    *error = std::to_string(message.positions.size()) + " positions for a " + std::to_string(message.rows) + " x " +
+             std::to_string(message.cols) + " grid";
+    return false;
+  }
+  positions_m->resize(3, static_cast<Eigen::Index>(count));
+  for (std::size_t i = 0; i < count; ++i) {
+    const geometry_msgs::Point& p = message.positions[i];
+    positions_m->col(static_cast<Eigen::Index>(i)) << p.x, p.y, p.z;
+  }
+  if (!positions_m->allFinite()) {
+    *error = "a position is not finite";
+    return false;
+  }
+  return true;
 }
 
 cloth_sim::ClothState toStateMessage(const core::Simulation& simulation, const std::string& frame_id,

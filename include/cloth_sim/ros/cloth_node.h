@@ -37,6 +37,8 @@ struct Names {
   static constexpr const char* kLoadSceneService = "load_scene";
   static constexpr const char* kSceneParam = "scene";
   static constexpr const char* kFrameIdParam = "frame_id";
+  /// Mesh markers per second at most (the cloth still advances at the frame rate).
+  static constexpr const char* kMeshRateParam = "mesh_rate";
   /// dynamic_reconfigure's namespace: ~tuning/set_parameters, ~tuning/parameter_updates.
   static constexpr const char* kTuningNamespace = "tuning";
 };
@@ -105,6 +107,8 @@ class ClothNode {
   /// Frames are due at anchor_time_ + k / frame_rate (ROS time: wall clock, or /clock under use_sim_time).
   ros::Time anchor_time_;
   ros::Time last_tick_;  ///< to notice /clock going backwards
+  double mesh_period_s_ = 0.0;  ///< 1 / ~mesh_rate
+  ros::Time last_mesh_;         ///< stamp of the last mesh marker published
   std::uint64_t anchor_frame_ = 0;
   bool anchored_ = false;
 

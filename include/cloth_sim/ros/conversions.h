@@ -22,6 +22,16 @@ namespace cloth_sim {
 /// colour per point (per-vertex texture colours, Gouraud-shaded by rviz).
 visualization_msgs::Marker toMeshMarker(const core::Simulation& simulation, const std::string& frame_id,
                                         const ros::Time& stamp);
+/// The same from a grid's topology, positions (3 x N, m) and colours (3 x N, RGB in [0, 1]): what
+/// cloth_viewer draws from a ClothState.
+visualization_msgs::Marker toMeshMarker(const core::ClothGrid& grid, const Eigen::Matrix3Xd& positions_m,
+                                        const Eigen::Matrix3Xf& colors, const std::string& frame_id,
+                                        const ros::Time& stamp);
+
+/// Positions of a ClothState as a 3 x N array; false with *error (naming what is wrong) when rows, cols and
+/// the position count disagree, the grid is outside [2, max_side] per side, or a value is not finite.
+bool fromStateMessage(const cloth_sim::ClothState& message, int max_side, Eigen::Matrix3Xd* positions_m,
+                      std::string* error);
 
 /// The whole state after a frame, with energies and the integrator in use.
 cloth_sim::ClothState toStateMessage(const core::Simulation& simulation, const std::string& frame_id,

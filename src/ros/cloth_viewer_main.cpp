@@ -1,0 +1,93 @@
+// cloth_viewer: turns ClothState messages (live, or from a compact recording) back into the cloth's rviz
+// mesh, so that a recording, or a viewer on another machine, needs only the state: about a sixth of the
+// mesh marker's bytes (each vertex once, no colours, against six times with colours).
+//
+//   rosrun cloth_sim cloth_viewer [_state_topic:=/cloth_node/state] [_mesh_topic:=mesh] [_mesh_rate:=25]
+//
+// The mesh is drawn with the built-in checker colours (a state message carries no texture).
+#include "cloth_sim/ClothState.h"
+#include "cloth_sim/core/grid.h"
+#include "cloth_sim/core/options.h"
+#include "cloth_sim/core/simulation.h"
+#include "cloth_sim/ros/conversions.h"
+
+#include <ros/ros.h>
+#include <visualization_msgs/Marker.h>
+
+#include <cmath>
+#include <string>
+
+namespace {
+
+constexpr double kWarnThrottle_s = 5.0;
+/// Meshes per second at most by default: the node's frame rate.
+constexpr double kDefaultMeshRateHz = 50.0;
+/// Unit grid the topology is built on: only its triangles and texture coordinates are used.
+constexpr double kUnitSide_m = 1.0;
+
+class ClothViewer {
+ public:
+  bool start(std::string* error) {
+    ros::NodeHandle pnh("~");
+    std::string state_topic;
+    std::string mesh_topic;
+    double mesh_rate_hz = kDefaultMeshRateHz;
+    pnh.param<std::string>("state_topic", state_topic, "/cloth_node/state");
+    pnh.param<std::string>("mesh_topic", mesh_topic, "mesh");
+    pnh.param<double>("mesh_rate", mesh_rate_hz, mesh_rate_hz);
+    if (!std::isfinite(mesh_rate_hz) || mesh_rate_hz <= 0.0 ||
+        mesh_rate_hz > cloth_sim::core::OptionLimits::kMaxFrameRateHz) {
+      *error = "parameter ~mesh_rate = " + std::to_string(mesh_rate_hz) + ": must be in (0, " +
+               std::to_string(cloth_sim::core::OptionLimits::kMaxFrameRateHz) + "] Hz";
+      return false;
+    }
+    mesh_period_s_ = 1.0 / mesh_rate_hz;
+    mesh_pub_ = pnh.advertise<visualization_msgs::Marker>(mesh_topic, 2);
+    state_sub_ = ros::NodeHandle().subscribe(state_topic, 2, &ClothViewer::onState, this);
+    ROS_INFO("cloth_viewer: %s -> %s at most %.0f Hz", state_sub_.getTopic().c_str(), mesh_pub_.getTopic().c_str(),
+             mesh_rate_hz);
+    return true;
+  }
+
+ private:
+  void onState(const cloth_sim::ClothState::ConstPtr& message) {
+    const ros::Time stamp = message->header.stamp;
+    const double since_s = (stamp - last_mesh_).toSec();
+    if (!last_mesh_.isZero() && since_s >= 0.0 && since_s < mesh_period_s_) return;  // not due yet
+    std::string error;
+    if (!cloth_sim::fromStateMessage(*message, cloth_sim::core::OptionLimits::kMaxGridSide, &positions_m_, &error)) {
+      ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_viewer: dropped a ClothState: %s", error.c_str());
+      return;
+    }
+    if (grid_.rows != static_cast<int>(message->rows) || grid_.cols != static_cast<int>(message->cols)) {
+      grid_ = cloth_sim::core::buildClothGrid(static_cast<int>(message->rows), static_cast<int>(message->cols),
+                                              kUnitSide_m, kUnitSide_m, Eigen::Vector3d::Zero(),
+                                              Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY());
+      colors_ = cloth_sim::core::checkerColors(grid_.uv);
+    }
+    mesh_pub_.publish(cloth_sim::toMeshMarker(grid_, positions_m_, colors_, message->header.frame_id, stamp));
+    last_mesh_ = stamp;
+  }
+
+  ros::Publisher mesh_pub_;
+  ros::Subscriber state_sub_;
+  double mesh_period_s_ = 1.0 / kDefaultMeshRateHz;
+  ros::Time last_mesh_;
+  cloth_sim::core::ClothGrid grid_;  ///< topology of the last grid size seen
+  Eigen::Matrix3Xf colors_;
+  Eigen::Matrix3Xd positions_m_;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "cloth_viewer");
+  ClothViewer viewer;
+  std::string error;
+  if (!viewer.start(&error)) {
+    ROS_FATAL("cloth_viewer: %s", error.c_str());
+    return 1;
+  }
+  ros::spin();
+  return 0;
+}
