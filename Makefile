@@ -10,7 +10,7 @@
 #                (scripts/bench.py): markdown tables on stdout, raw JSON lines in .build/bench_results.json
 #                (make bench BENCH_ARGS=--quick, or BENCH_ARGS="--sizes 20,64 --frames 20")
 #   make pictures  record every scene (or SCENES="flag ball") and render it in rviz under Xvfb into
-#                doc/images/rviz_<scene>.png, plus the demo's picture as doc/images/demo_hanging.png
+#                doc/images/rviz_<scene>.png, plus the demo's picture as doc/images/demo_drape.png
 #   make clean   remove the private workspace and the demo outputs
 #
 # Cloned into an existing catkin workspace's src/ instead? Then catkin_make there as usual: nothing in
@@ -44,7 +44,7 @@ WS_ROOT ?= $(HOME)/.cache/cloth_sim
 WS ?= $(WS_ROOT)/ws-$(shell printf '%s' '$(REPO)' | sha1sum | cut -c1-10)
 override WS := $(patsubst %/,%,$(abspath $(WS)))
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
-SCENE ?= hanging
+SCENE ?= drape
 DEMO_SECONDS ?= 10
 DEMO_DIR ?= $(REPO)/.build/demo
 

@@ -249,7 +249,7 @@ def main():
         print(f"cloth_client: {error}", file=sys.stderr)
         return 1
     except (KeyboardInterrupt, rospy.ROSInterruptException):
-        print("cloth_client: interrupted; released the corner and stopped the wind", file=sys.stderr)
+        print("cloth_client: interrupted (grasp released, wind stopped)", file=sys.stderr)
         return 130
     finally:
         rospy.signal_shutdown("cloth_client done")

@@ -10,7 +10,7 @@
 set -eu -o pipefail
 
 ws=${1:?usage: demo.sh WORKSPACE [SCENE] [SECONDS] [OUTDIR]}
-scene=${2:-hanging}
+scene=${2:-drape}
 seconds=${3:-10}
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 outdir=${4:-$here/../.build/demo}

@@ -16,6 +16,7 @@ Runs with Debian's /usr/bin/python3 (python3-rosbag, python3-matplotlib, python3
 workspace needed: rosbag rebuilds message classes from the definitions stored in the bag.
 """
 import argparse
+import collections
 import math
 import os
 import sys
@@ -85,9 +86,23 @@ def shade(tris, colors):
     return out
 
 
+# A particle whose velocity is exactly zero in each of the last this many recorded states counts as pinned:
+# the node sets a fixed pin's velocity to exactly 0, while a free particle keeps some rounding-level speed.
+PIN_STATES = 25
+
+
+def pinned_points(last_states):
+    """Positions, in the last state, of the particles pinned in the recording: (n x 3), m."""
+    if len(last_states) < PIN_STATES:
+        return np.zeros((0, 3))
+    still = np.all([np.all(velocities == 0.0, axis=1) for _, velocities in last_states], axis=0)
+    return last_states[-1][0][still]
+
+
 def read_bag(path, topic):
     meshes = []  # (bag time s, header stamp s, marker)
     states = []  # (bag time s, sim_time s)
+    last_states = collections.deque(maxlen=PIN_STATES)  # (positions, velocities), rows * cols x 3 each
     with rosbag.Bag(path) as bag:
         info = bag.get_type_and_topic_info().topics
         if topic not in info:
@@ -99,7 +114,9 @@ def read_bag(path, topic):
                 meshes.append((stamp.to_sec(), msg.header.stamp.to_sec(), msg))
             elif math.isfinite(msg.sim_time):
                 states.append((stamp.to_sec(), msg.sim_time))
-    return meshes, states
+                last_states.append((np.array([[p.x, p.y, p.z] for p in msg.positions]),
+                                    np.array([[v.x, v.y, v.z] for v in msg.velocities])))
+    return meshes, states, list(last_states)
 
 
 def rate(times):
@@ -117,7 +134,7 @@ def main(argv=None):
     ap.add_argument("--dpi", type=int, default=110)
     args = ap.parse_args(argv)
 
-    meshes, states = read_bag(args.bag, args.topic)
+    meshes, states, last_states = read_bag(args.bag, args.topic)
     usable = [m for m in meshes if m[2].type == TRIANGLE_LIST and m[2].action == MARKER_ADD and len(m[2].points) >= 3]
     if not usable:
         print("render_bag: %s: %d messages on %s, none a non-empty TRIANGLE_LIST" % (args.bag, len(meshes), args.topic),
@@ -169,6 +186,11 @@ def main(argv=None):
     # Edges in the face colour hide the anti-aliasing seams between neighbouring triangles.
     cloth = Poly3DCollection(list(tris), facecolors=faces, edgecolors=faces, linewidths=0.3)
     ax.add_collection3d(cloth)
+
+    pins = pinned_points(last_states)
+    if len(pins):
+        ax.scatter(pins[:, 0], pins[:, 1], pins[:, 2], s=60, c="black", depthshade=False, label="pins")
+        ax.legend(loc="upper left")
 
     zmax = max(float(hi[2]), floor_z + 0.1)
     ax.set_xlim(fx0, fx1)

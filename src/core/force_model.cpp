@@ -95,21 +95,34 @@ Eigen::Vector3d ClothForceModel::pinOffset(double time_s) const {
   return options_.pin_motion_amplitude_m * std::sin(kTwoPi * time_s / options_.pin_motion_period_s);
 }
 
+ClothForceModel::PinTravel ClothForceModel::pinTravel(double time_s) const {
+  const double duration_s = options_.pin_travel_time_s;
+  if (duration_s <= 0.0 || time_s >= duration_s) return {};
+  // Smoothstep s(u) = 3u^2 - 2u^3: the pins leave and arrive at rest.
+  const double u = std::max(0.0, time_s / duration_s);
+  return {1.0 - u * u * (3.0 - 2.0 * u), -6.0 * u * (1.0 - u) / duration_s};
+}
+
 void ClothForceModel::constrainedPositions(double time_s, Eigen::Matrix3Xd& positions_m) const {
   const Eigen::Vector3d offset_m = pinOffset(time_s);
+  const PinTravel travel = pinTravel(time_s);
   for (std::size_t p = 0; p < inputs_.pins.size(); ++p) {
     const int i = inputs_.pins[p];
-    if (inverse_mass_per_kg_[i] == 0.0) positions_m.col(i) = inputs_.pin_anchors_m.col(p) + offset_m;
+    if (inverse_mass_per_kg_[i] != 0.0) continue;
+    positions_m.col(i) = inputs_.pin_anchors_m.col(p) + offset_m + travel.remaining * inputs_.pin_travel_m.col(p);
   }
 }
 
 void ClothForceModel::enforceConstraints(double time_s, ClothState& state) const {
   constrainedPositions(time_s, state.positions_m);
   const double angular_rate = kTwoPi / options_.pin_motion_period_s;
-  const Eigen::Vector3d velocity_m_per_s =
+  const Eigen::Vector3d motion_m_per_s =
       options_.pin_motion_amplitude_m * angular_rate * std::cos(angular_rate * time_s);
-  for (int i : inputs_.pins) {
-    if (inverse_mass_per_kg_[i] == 0.0) state.velocities_m_per_s.col(i) = velocity_m_per_s;
+  const PinTravel travel = pinTravel(time_s);
+  for (std::size_t p = 0; p < inputs_.pins.size(); ++p) {
+    const int i = inputs_.pins[p];
+    if (inverse_mass_per_kg_[i] != 0.0) continue;
+    state.velocities_m_per_s.col(i) = motion_m_per_s + travel.rate_per_s * inputs_.pin_travel_m.col(p);
   }
 }
 

@@ -85,9 +85,17 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   problems.positive("wind_gust_period", o.wind.gust_period_s, L::kMaxPeriod_s);
 
   std::string pin_error;
-  resolvePins(o.pins, std::max(o.rows, 2), std::max(o.cols, 2), &pin_error);
+  const std::vector<int> pinned = resolvePins(o.pins, std::max(o.rows, 2), std::max(o.cols, 2), &pin_error);
   if (!pin_error.empty()) problems.fail(pin_error);
   problems.finiteVector("pin_motion_amplitude", o.pin_motion_amplitude_m, L::kMaxCoordinate_m);
+  if (!o.pin_positions_m.empty() && pin_error.empty() && o.pin_positions_m.size() != pinned.size()) {
+    problems.fail("pin_positions: " + std::to_string(o.pin_positions_m.size()) + " positions for " +
+                  std::to_string(pinned.size()) + " pinned particles (one each, in increasing particle index)");
+  }
+  problems.inRange("pin_travel_time", o.pin_travel_time_s, 0.0, L::kMaxPeriod_s);
+  for (std::size_t i = 0; i < o.pin_positions_m.size(); ++i) {
+    problems.finiteVector("pin_positions[" + std::to_string(i) + "]", o.pin_positions_m[i], L::kMaxCoordinate_m);
+  }
   problems.positive("pin_motion_period", o.pin_motion_period_s, L::kMaxPeriod_s);
 
   for (std::size_t i = 0; i < o.colliders.planes.size(); ++i) {

@@ -16,6 +16,7 @@ constexpr int kCheckerSquares = 8;
 bool sameGrid(const SceneOptions& a, const SceneOptions& b) {
   return a.rows == b.rows && a.cols == b.cols && a.width_m == b.width_m && a.height_m == b.height_m &&
          a.origin_m == b.origin_m && a.u_axis == b.u_axis && a.v_axis == b.v_axis && a.pins == b.pins &&
+         a.pin_positions_m == b.pin_positions_m && a.pin_travel_time_s == b.pin_travel_time_s &&
          a.mass_kg == b.mass_kg;
 }
 
@@ -47,8 +48,11 @@ void Simulation::reset() {
   std::string unused;
   inputs_.pins = resolvePins(options_.pins, grid_.rows, grid_.cols, &unused);
   inputs_.pin_anchors_m.resize(3, static_cast<Eigen::Index>(inputs_.pins.size()));
+  inputs_.pin_travel_m.setZero(3, static_cast<Eigen::Index>(inputs_.pins.size()));
   for (std::size_t p = 0; p < inputs_.pins.size(); ++p) {
-    inputs_.pin_anchors_m.col(p) = grid_.rest_positions_m.col(inputs_.pins[p]);
+    const Eigen::Vector3d start_m = grid_.rest_positions_m.col(inputs_.pins[p]);
+    inputs_.pin_anchors_m.col(p) = options_.pin_positions_m.empty() ? start_m : options_.pin_positions_m[p];
+    if (options_.pin_travel_time_s > 0.0) inputs_.pin_travel_m.col(p) = start_m - inputs_.pin_anchors_m.col(p);
   }
   inputs_.grasps.clear();
   force_model_.refreshConstraints();
@@ -203,8 +207,9 @@ bool Simulation::release(std::uint32_t id) {
   const auto pin = std::lower_bound(inputs_.pins.begin(), inputs_.pins.end(), particle);
   if (!inputs_.isGrasped(particle) && pin != inputs_.pins.end() && *pin == particle) {
     // Hang it on a hook where the hand let go: the pin's motion continues from there.
-    inputs_.pin_anchors_m.col(pin - inputs_.pins.begin()) =
-        state_.positions_m.col(particle) - force_model_.pinOffset(state_.time_s);
+    const auto p = pin - inputs_.pins.begin();
+    inputs_.pin_anchors_m.col(p) = state_.positions_m.col(particle) - force_model_.pinOffset(state_.time_s);
+    inputs_.pin_travel_m.col(p).setZero();
     force_model_.refreshConstraints();
     force_model_.enforceConstraints(state_.time_s, state_);
   }

@@ -120,6 +120,12 @@ std::map<std::string, Setter> makeSetters() {
   s["wind_gust_amplitude"] = [](const YAML::Node& n, SceneOptions& o) { o.wind.gust_amplitude = readDouble(n); };
   s["wind_gust_period"] = [](const YAML::Node& n, SceneOptions& o) { o.wind.gust_period_s = readDouble(n); };
   s["pins"] = [](const YAML::Node& n, SceneOptions& o) { o.pins = readPins(n); };
+  s["pin_positions"] = [](const YAML::Node& n, SceneOptions& o) {
+    if (!n.IsSequence()) throw WrongType{"a list of [x, y, z] positions, one per pinned particle"};
+    o.pin_positions_m.clear();
+    for (const YAML::Node& item : n) o.pin_positions_m.push_back(readVector(item));
+  };
+  s["pin_travel_time"] = [](const YAML::Node& n, SceneOptions& o) { o.pin_travel_time_s = readDouble(n); };
   s["pin_motion_amplitude"] = [](const YAML::Node& n, SceneOptions& o) { o.pin_motion_amplitude_m = readVector(n); };
   s["pin_motion_period"] = [](const YAML::Node& n, SceneOptions& o) { o.pin_motion_period_s = readDouble(n); };
   s["planes"] = [](const YAML::Node& n, SceneOptions& o) {

@@ -31,6 +31,8 @@ std::string join(const std::vector<std::string>& parts, const std::string& separ
 /// Timer jitter: a frame counts as due this much before its exact time, in frames.
 constexpr double kFrameDueTolerance = 1e-6;
 constexpr double kWarnThrottle_s = 5.0;
+/// The scene when ~scene is not given: a cloth that sags and folds between two hooks.
+constexpr const char* kDefaultScene = "drape";
 /// A mesh counts as due this fraction of a frame before its period is up (timer ticks jitter).
 constexpr double kMeshPeriodTolerance = 0.5;
 constexpr double kMillisecondsPerSecond = 1000.0;
@@ -47,7 +49,7 @@ bool ClothNode::start(std::string* error) {
     return false;
   }
   std::string scene;
-  pnh_.param<std::string>(Names::kSceneParam, scene, "hanging");
+  pnh_.param<std::string>(Names::kSceneParam, scene, kDefaultScene);
   scenes_dir_ = ros::package::getPath("cloth_sim") + "/config/scenes";
   std::unique_ptr<core::Simulation> simulation = buildSimulation(scene, true, error);
   if (!simulation) return false;

@@ -59,7 +59,7 @@ TEST_P(EveryScene, RunsTenSecondsStableFiniteAndWithNothingInsideAColllider) {
 }
 
 INSTANTIATE_TEST_SUITE_P(BuiltinScenes, EveryScene,
-                         ::testing::Values("hanging", "flag", "curtain", "tablecloth", "ball", "drop"),
+                         ::testing::Values("hanging", "drape", "flag", "curtain", "tablecloth", "ball", "drop"),
                          [](const ::testing::TestParamInfo<std::string>& info) { return info.param; });
 
 TEST_P(EveryScene, At128x128ItsOwnDefaultsRunASecondWithNoFrameRolledBackOrRecomputed) {
@@ -78,9 +78,9 @@ TEST_P(EveryScene, At128x128ItsOwnDefaultsRunASecondWithNoFrameRolledBackOrRecom
   EXPECT_TRUE(isFiniteAndBounded(sim.state(), Simulation::kDivergenceBound_m));
 }
 
-TEST(Scenes, TheBuiltinSceneListIsTheSixScenes) {
+TEST(Scenes, TheBuiltinSceneListIsTheSevenScenes) {
   EXPECT_EQ(builtinSceneNames(test::scenesDir()),
-            (std::vector<std::string>{"ball", "curtain", "drop", "flag", "hanging", "tablecloth"}));
+            (std::vector<std::string>{"ball", "curtain", "drape", "drop", "flag", "hanging", "tablecloth"}));
 }
 
 TEST(Scenes, HangingFileIsTheDefaults) {
@@ -201,6 +201,27 @@ TEST(Scenes, BallPushesTheClothWhichSwingsBack) {
   EXPECT_LT(back_m, 0.2 * pushed_m);
 }
 
+TEST(Scenes, DrapeSagsBetweenItsHooksIntoFoldsAndSettles) {
+  const SceneOptions o = loadBuiltinScene("drape");
+  ASSERT_EQ(o.pin_positions_m.size(), 2u);
+  const SceneRun run = runScene(o, kTenSecondsOfFrames);
+  Simulation sim(o);
+  const ClothGrid& g = sim.grid();
+  const Eigen::Matrix3Xd& end = run.positions.back();
+  // The corners hang on their hooks, 0.6 m apart, not where the flat cloth had them (1 m apart).
+  EXPECT_LT((end.col(g.index(0, 0)) - o.pin_positions_m[0]).norm(), 1e-12);
+  EXPECT_LT((end.col(g.index(0, o.cols - 1)) - o.pin_positions_m[1]).norm(), 1e-12);
+  // The top edge sags between them, and the cloth leaves its starting plane (y = 0) in folds.
+  const Eigen::Vector3d top_middle = end.col(g.index(0, o.cols / 2));
+  EXPECT_LT(top_middle.z(), o.pin_positions_m[0].z() - 0.03) << "the top edge sags";
+  EXPECT_GT(end.row(1).maxCoeff() - end.row(1).minCoeff(), 0.1) << "folds out of the plane";
+  // And settles: the last second moves less than a millimetre.
+  const Eigen::Matrix3Xd& second_before = run.positions[run.positions.size() - 1 - 50];
+  EXPECT_LT((end - second_before).colwise().norm().maxCoeff(), 1e-3);
+  std::printf("[ scene      ] drape: top middle %.3f m below the hooks, fold depth (y span) %.3f m\n",
+              o.pin_positions_m[0].z() - top_middle.z(), end.row(1).maxCoeff() - end.row(1).minCoeff());
+}
+
 TEST(Scenes, DropLandsFlatOnTheFloor) {
   const SceneOptions o = loadBuiltinScene("drop");
   const SceneRun run = runScene(o, kTenSecondsOfFrames);
@@ -240,6 +261,11 @@ void expectErrorNames(const std::string& yaml, const std::vector<std::string>& n
   for (const std::string& needle : needles) {
     EXPECT_NE(errors.front().find(needle), std::string::npos) << "'" << errors.front() << "' lacks '" << needle << "'";
   }
+}
+
+TEST(SceneFile, PinPositionsMustMatchThePinnedParticles) {
+  expectErrorNames("pins: [top_left, top_right]\npin_positions: [[0, 0, 1]]\n",
+                   {"pin_positions", "1 positions for 2 pinned particles"});
 }
 
 TEST(SceneFile, UnknownKeyIsRejectedByName) { expectErrorNames("rows: 10\nstifness: 3\n", {"unknown key", "stifness"}); }

@@ -33,6 +33,13 @@ class ClothForceModel final : public Dynamics {
   void enforceConstraints(double time_s, ClothState& state) const;
   /// Where the pins' motion has taken them at time_s, relative to their hooks, m.
   Eigen::Vector3d pinOffset(double time_s) const;
+  /// The share of its travel (ClothInputs::pin_travel_m) a pin still has to go at time_s, and its rate
+  /// of change, 1/s.
+  struct PinTravel {
+    double remaining = 0.0;
+    double rate_per_s = 0.0;
+  };
+  PinTravel pinTravel(double time_s) const;
 
   void forces(const Eigen::Matrix3Xd& positions_m, const Eigen::Matrix3Xd& velocities_m_per_s, double time_s,
               Eigen::Matrix3Xd& forces_N) override;

@@ -22,6 +22,9 @@ struct ClothInputs {
   /// 3 x pins.size(), world frame, m: where each pin's hook hangs before the pins' motion is added. The
   /// rest position until a released grasp hangs the pin on a new hook where it let go.
   Eigen::Matrix3Xd pin_anchors_m;
+  /// 3 x pins.size(), m: how far each pin starts from its hook; it travels there over
+  /// options.pin_travel_time_s. Zero once a pin is hooked again after a grasp.
+  Eigen::Matrix3Xd pin_travel_m;
 
   /// True when a grasp holds particle i (a held pin is off its hook and moves freely).
   bool isGrasped(int particle) const {

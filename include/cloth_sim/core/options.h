@@ -63,6 +63,13 @@ struct SceneOptions {
   /// Pinned particles: "top_left", "top_right", "bottom_left", "bottom_right", "top_edge", "bottom_edge",
   /// "left_edge", "right_edge", or a particle index as a decimal string.
   std::vector<std::string> pins{"top_left", "top_right"};
+  /// Where the pins hang (world frame, m), one per pinned particle in increasing particle index; empty:
+  /// each where its particle starts. Hooks apart from the rest grid let a cloth sag and fold between
+  /// them (the `drape` scene hangs a 1 m cloth from corners 0.6 m apart).
+  std::vector<Eigen::Vector3d> pin_positions_m;
+  /// Seconds the pins take to travel from where their particles start to pin_positions (a smooth start
+  /// and stop, as a hand would carry them); 0: they are there at once.
+  double pin_travel_time_s = 0.0;
   /// Pins move by A sin(2 pi t / T) (a curtain rail, a waved flag pole); zero amplitude: fixed.
   Eigen::Vector3d pin_motion_amplitude_m = Eigen::Vector3d::Zero();
   double pin_motion_period_s = 1.0;
