@@ -114,8 +114,8 @@ def fmt(point):
 def circle_target(start, step, steps, radius_m):
     """Target `step` of `steps` on a vertical circle through `start` (its lowest point), in the y-z plane.
 
-    y-z is across the cloth's plane (the hanging scene spans x-z), so the corner swings out of the cloth
-    and back rather than into its neighbours. Step `steps` is back at `start`.
+    y-z is across the cloth's plane (the built-in scenes hang it in x-z), so the corner swings out of
+    the cloth and back rather than into its neighbours. Step `steps` is back at `start`.
     """
     angle_rad = 2.0 * math.pi * step / steps
     return Point(x=start.x,
@@ -159,7 +159,7 @@ def run(node_ns, wind_m_per_s, drag_s):
         raise ClientError(f"no Marker on {mesh_topic} within {CONNECT_TIMEOUT_S:.0f} s: is cloth_node "
                           f"running under {node_ns}, on this ROS_MASTER_URI? (rostopic list)") from None
     states = StateMonitor(node_ns + "/state")
-    first = states.wait_for(lambda s: True, CONNECT_TIMEOUT_S, "ClothState")
+    first = states.wait_for(lambda _: True, CONNECT_TIMEOUT_S, "ClothState")
     # Targets and wind are given in the node's own frame (frame_id "world" by default), so the node
     # needs no tf lookup and the targets we compute from ~state positions mean what we think they mean.
     frame_id = first.header.frame_id or "world"
@@ -175,7 +175,7 @@ def run(node_ns, wind_m_per_s, drag_s):
 
     grabbed = False
     try:
-        # 2. Wind along +y: normal to the hanging cloth, so it bellies out along +y.
+        # 2. Wind along +y: normal to the cloth, so it bellies out along +y.
         wind_pub.publish(make_wind(frame_id, wind_m_per_s))
         windy = states.wait_for(lambda s: s.sim_time >= first.sim_time + WIND_SETTLE_S,
                                 WIND_SETTLE_S + STATE_TIMEOUT_S, f"state {WIND_SETTLE_S} s after the wind")
@@ -217,8 +217,9 @@ def run(node_ns, wind_m_per_s, drag_s):
 
     last = states.wait_for(lambda s: s.sim_time >= settled.sim_time + AFTER_RELEASE_S,
                            AFTER_RELEASE_S + STATE_TIMEOUT_S, "state after the release")
+    moved_m = distance_m(last.positions[corner], settled.positions[corner])
     print(f"released, wind off: {AFTER_RELEASE_S:.1f} s later the corner is at "
-          f"{fmt(last.positions[corner])} m, {distance_m(last.positions[corner], settled.positions[corner]):.3f} m from where it was let go")
+          f"{fmt(last.positions[corner])} m, {moved_m:.3f} m from where it was let go")
     print(f"summary: sim_time {last.sim_time:.2f} s, frame {last.frame} "
           f"({last.frame - first.frame} frames during this run), "
           f"kinetic energy {last.kinetic_energy:.4f} J, potential energy {last.potential_energy:.4f} J")
