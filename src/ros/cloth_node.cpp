@@ -18,7 +18,7 @@ namespace {
 /// Private parameters that belong to the node rather than to the scene.
 const std::set<std::string>& nodeOnlyParameters() {
   static const std::set<std::string> names{Names::kSceneParam, Names::kFrameIdParam, Names::kMeshRateParam,
-                                           Names::kTuningNamespace};
+                                           Names::kParentFrameParam, Names::kTuningNamespace};
   return names;
 }
 
@@ -46,6 +46,13 @@ bool ClothNode::start(std::string* error) {
   pnh_.param<std::string>(Names::kFrameIdParam, frame_id_, "world");
   if (frame_id_.empty() || frame_id_[0] == '/') {
     *error = "parameter ~frame_id = '" + frame_id_ + "': must be a non-empty tf frame name without a leading '/'";
+    return false;
+  }
+  std::string parent_frame;
+  pnh_.param<std::string>(Names::kParentFrameParam, parent_frame, "");
+  if (!parent_frame.empty() && (parent_frame[0] == '/' || parent_frame == frame_id_)) {
+    *error = "parameter ~parent_frame_id = '" + parent_frame +
+             "': must be a tf frame name without a leading '/', other than ~frame_id";
     return false;
   }
   std::string scene;
@@ -85,6 +92,15 @@ bool ClothNode::start(std::string* error) {
   diagnostics_.setHardwareID("cloth_sim");
   diagnostics_.add("simulation", this, &ClothNode::diagnose);
   window_start_ = std::chrono::steady_clock::now();
+
+  if (!parent_frame.empty()) {
+    geometry_msgs::TransformStamped identity;
+    identity.header.stamp = ros::Time::now();
+    identity.header.frame_id = parent_frame;
+    identity.child_frame_id = frame_id_;
+    identity.transform.rotation.w = 1.0;
+    static_broadcaster_.sendTransform(identity);
+  }
 
   timer_ = pnh_.createTimer(ros::Duration(simulation_->options().frameDuration_s()), &ClothNode::onTimer, this);
   ROS_INFO("cloth_node: scene '%s', %dx%d particles, %s with %d substeps, %.0f Hz, frame '%s'",

@@ -152,6 +152,14 @@ TEST(LaunchArgs, RowsColsIntegratorAndSubstepsReachTheNode) {
   EXPECT_EQ(state->substeps, static_cast<std::uint32_t>(expected.param("substeps", 0)));
 }
 
+TEST(LaunchArgs, TheFrameIdIsInTfUnderItsParent) {
+  // cloth.launch's parent_frame (map): rviz, whose fixed frame is frame_id, finds it in every scene.
+  tf2_ros::Buffer buffer;
+  tf2_ros::TransformListener listener(buffer);
+  std::string why;
+  EXPECT_TRUE(buffer.canTransform("map", "world", ros::Time(0), ros::Duration(10.0), &why)) << why;
+}
+
 TEST(Mesh, TriangleListOfFiniteColouredPointsInFrameId) {
   ros::NodeHandle pnh("~");
   int rows = 0;
@@ -840,6 +848,10 @@ TEST(BadParams, ZeroSubstepsNamesTheParameterAndItsRange) {
 
 TEST(BadParams, UnknownIntegratorIsNamed) {
   expectRefused("bad_integrator", "_integrator:=bogus", {"integrator", "bogus", "rk4", "implicit_euler"});
+}
+
+TEST(BadParams, AParentFrameThatIsTheFrameItselfIsNamed) {
+  expectRefused("bad_parent", "_parent_frame_id:=world", {"parent_frame_id", "'world'", "other than ~frame_id"});
 }
 
 TEST(BadParams, SolverCapAndThreadsOutsideTheirRangesAreNamed) {

@@ -15,6 +15,7 @@
 #include <std_srvs/SetBool.h>
 #include <std_srvs/Trigger.h>
 #include <tf2_ros/buffer.h>
+#include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 
@@ -39,6 +40,9 @@ struct Names {
   static constexpr const char* kFrameIdParam = "frame_id";
   /// Mesh markers per second at most (the cloth still advances at the frame rate).
   static constexpr const char* kMeshRateParam = "mesh_rate";
+  /// When set, frame_id is published in tf as a static identity child of this frame (so rviz, whose fixed
+  /// frame is frame_id, finds it in every scene, with or without sphere frames).
+  static constexpr const char* kParentFrameParam = "parent_frame_id";
   /// dynamic_reconfigure's namespace: ~tuning/set_parameters, ~tuning/parameter_updates.
   static constexpr const char* kTuningNamespace = "tuning";
 };
@@ -95,6 +99,7 @@ class ClothNode {
   ros::ServiceServer reset_srv_, pause_srv_, step_srv_, load_scene_srv_;
   ros::Timer timer_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
+  tf2_ros::StaticTransformBroadcaster static_broadcaster_;
   tf2_ros::Buffer tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::unique_ptr<dynamic_reconfigure::Server<cloth_sim::ClothConfig>> reconfigure_;
