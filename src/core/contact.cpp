@@ -244,13 +244,11 @@ void resolveBox(const BoxCollider& box, const ContactOptions& options, const Eig
 }  // namespace
 
 Eigen::Vector3d SphereCollider::centerAt(double time_s) const {
-  return center_m + velocity_m_per_s * time_s +
-         oscillation_amplitude_m * std::sin(kTwoPi * time_s / oscillation_period_s);
+  return center_m + velocity_m_per_s * time_s + oscillation_amplitude_m * periodicSine(time_s, oscillation_period_s);
 }
 
 Eigen::Vector3d SphereCollider::velocityAt(double time_s) const {
-  const double angular_rate = kTwoPi / oscillation_period_s;
-  return velocity_m_per_s + oscillation_amplitude_m * angular_rate * std::cos(angular_rate * time_s);
+  return velocity_m_per_s + oscillation_amplitude_m * periodicSineRate(time_s, oscillation_period_s);
 }
 
 ContactStats& ContactStats::operator+=(const ContactStats& other) {

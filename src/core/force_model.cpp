@@ -92,7 +92,7 @@ void ClothForceModel::refreshConstraints() {
 }
 
 Eigen::Vector3d ClothForceModel::pinOffset(double time_s) const {
-  return options_.pin_motion_amplitude_m * std::sin(kTwoPi * time_s / options_.pin_motion_period_s);
+  return options_.pin_motion_amplitude_m * periodicSine(time_s, options_.pin_motion_period_s);
 }
 
 ClothForceModel::PinTravel ClothForceModel::pinTravel(double time_s) const {
@@ -115,9 +115,8 @@ void ClothForceModel::constrainedPositions(double time_s, Eigen::Matrix3Xd& posi
 
 void ClothForceModel::enforceConstraints(double time_s, ClothState& state) const {
   constrainedPositions(time_s, state.positions_m);
-  const double angular_rate = kTwoPi / options_.pin_motion_period_s;
   const Eigen::Vector3d motion_m_per_s =
-      options_.pin_motion_amplitude_m * angular_rate * std::cos(angular_rate * time_s);
+      options_.pin_motion_amplitude_m * periodicSineRate(time_s, options_.pin_motion_period_s);
   const PinTravel travel = pinTravel(time_s);
   for (std::size_t p = 0; p < inputs_.pins.size(); ++p) {
     const int i = inputs_.pins[p];

@@ -50,8 +50,7 @@ void accumulateAirDamping(double damping_N_s_per_m, const Eigen::Matrix3Xd& velo
 
 Eigen::Vector3d windVelocityAt(const WindOptions& options, double time_s) {
   if (options.gust_amplitude == 0.0) return options.velocity_m_per_s;
-  return options.velocity_m_per_s *
-         (1.0 + options.gust_amplitude * std::sin(kTwoPi * time_s / options.gust_period_s));
+  return options.velocity_m_per_s * (1.0 + options.gust_amplitude * periodicSine(time_s, options.gust_period_s));
 }
 
 void accumulateWindForces(const std::vector<int>& triangles, const WindOptions& options,
