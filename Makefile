@@ -62,6 +62,14 @@ export ROS_HOSTNAME := localhost
 endif
 # The sub-makes that catkin_make runs get their -j from the command line below, not from ours.
 unexport MAKEFLAGS
+# A shell that sourced this workspace's own devel/setup.bash must not leak it into catkin's configure
+# step: catkin caches only the difference from the environment it finds, so the tests' environment would
+# lose ROS_PACKAGE_PATH ("Package [cloth_sim] does not exist"). Other (parent) workspaces stay.
+empty :=
+space := $(empty) $(empty)
+without = $(subst $(space),:,$(strip $(filter-out $(2),$(subst :, ,$(1)))))
+export CMAKE_PREFIX_PATH := $(call without,$(CMAKE_PREFIX_PATH),$(WS)/devel)
+export ROS_PACKAGE_PATH := $(call without,$(ROS_PACKAGE_PATH),$(WS)/src $(WS)/src/cloth_sim)
 
 help:
 	@sed -n '1,/^$$/p' $(lastword $(MAKEFILE_LIST)) | sed 's/^# \{0,1\}//'
