@@ -9,6 +9,7 @@
 #include "cloth_sim/core/inputs.h"
 #include "cloth_sim/core/integrators.h"
 #include "cloth_sim/core/options.h"
+#include "cloth_sim/core/snapshot.h"
 #include "cloth_sim/core/stability_guard.h"
 #include "cloth_sim/core/state.h"
 
@@ -85,7 +86,8 @@ class Simulation {
 
   /// Back to the scene's initial state: grasps released, pins re-hooked. Tuning (retune, wind) is kept.
   void reset();
-  /// Replaces the whole state (a saved snapshot); false with *error if the particle count differs.
+  /// Replaces the state, keeping options and inputs; false with *error (state unchanged) if it would not
+  /// pass restore(): wrong particle count, non-finite or out-of-bound values.
   bool restoreState(const ClothState& state, std::string* error);
 
   /// Live tuning: accepts new options when they keep the grid (rows, cols, size, pose, pins and mass
@@ -114,6 +116,16 @@ class Simulation {
 
   EnergyReport energies() const;
   double maxStructuralStrain() const;
+
+  /// Everything needed to continue this run elsewhere: options in force, state and inputs.
+  SimulationSnapshot snapshot() const;
+  /// Replaces options, state and inputs with the snapshot's, all or nothing: false with *error (and
+  /// nothing changed) unless the options validate and keep the grid (as retune requires), the state has
+  /// this grid's particle count and is finite and within kDivergenceBound_m, and the inputs fit (the
+  /// resolved pins, one hook and travel per pin, at most kMaxGrasps grasps with unique ids on existing
+  /// particles, finite values within the limits grab and the wind topic enforce). Advancing after a
+  /// restore gives the same bits as the run the snapshot was taken from.
+  bool restore(const SimulationSnapshot& snapshot, std::string* error);
 
  private:
   /// Runs one frame in the given number of substeps from the current state; adds the integrator's work
