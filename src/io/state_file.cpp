@@ -342,6 +342,17 @@ bool writeStateFile(const std::string& path, const SimulationSnapshot& snapshot,
     *error = path + " is a directory";
     return false;
   }
+  // Any ROS peer may ask for a save: replace only state files, so a mistyped or hostile path cannot
+  // destroy another file the node can write.
+  if (fs::exists(fs::symlink_status(path, ec))) {
+    char magic[sizeof(F::kMagic)] = {};
+    std::ifstream existing(path, std::ios::binary);
+    if (!fs::is_regular_file(fs::symlink_status(path, ec)) || !existing.read(magic, sizeof(magic)) ||
+        std::memcmp(magic, F::kMagic, sizeof(magic)) != 0) {
+      *error = path + " exists and is not a cloth_sim state file: not replaced";
+      return false;
+    }
+  }
   const std::string bytes = encodeStateFile(snapshot);
   // A temporary file next to the target, renamed over it once complete: rename within one file system
   // is atomic, so readers see the old file or the new one, never a half-written one.

@@ -699,6 +699,15 @@ TEST(StateFile, WritingIsAtomicAndAnUnwritablePathFailsWithTheReason) {
   EXPECT_FALSE(writeStateFile("", saved, &error));
   EXPECT_FALSE(writeStateFile("/proc/cloth_sim_state", saved, &error)) << "wrote into /proc";
 
+  // Another kind of file in the way is not replaced.
+  const std::string other = folder.string() + "/notes.txt";
+  std::ofstream(other) << "keep me\n";
+  EXPECT_FALSE(writeStateFile(other, saved, &error));
+  EXPECT_NE(error.find("not a cloth_sim state file: not replaced"), std::string::npos) << error;
+  std::string kept;
+  std::getline(std::ifstream(other), kept);
+  EXPECT_EQ(kept, "keep me");
+
   // The good file is still whole after the failed saves.
   SimulationSnapshot loaded;
   ASSERT_TRUE(readStateFile(path, &loaded, &error)) << error;

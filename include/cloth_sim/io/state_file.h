@@ -33,8 +33,9 @@ struct StateFileFormat {
 };
 
 /// Writes the snapshot to `path` through a temporary file in the same folder renamed over it, so a
-/// failed or interrupted save leaves either the old file or none, never half of one. False with the
-/// reason in *error (the folder missing or not writable, the disk full).
+/// failed or interrupted save leaves either the old file or none, never half of one. An existing file is
+/// replaced only if it is a state file. False with the reason in *error (the folder missing or not
+/// writable, the disk full, another kind of file in the way).
 bool writeStateFile(const std::string& path, const SimulationSnapshot& snapshot, std::string* error);
 
 /// Reads a state file written by writeStateFile. False with the reason in *error, and *snapshot
