@@ -27,7 +27,8 @@ using F = StateFileFormat;
 constexpr char kOptionsTag[4] = {'O', 'P', 'T', 'S'};  ///< the options as scene YAML (sceneYaml)
 constexpr char kStateTag[4] = {'S', 'T', 'A', 'T'};    ///< ClothState
 constexpr char kInputsTag[4] = {'I', 'N', 'P', 'T'};   ///< ClothInputs
-constexpr std::size_t kSectionHeaderBytes = 4 + sizeof(std::uint64_t);
+constexpr std::size_t kSectionCount = 3;
+constexpr std::size_t kTagBytes = sizeof(kOptionsTag);
 /// Longest excerpt of a validation problem quoted in an error (it may hold a string from the file).
 constexpr std::size_t kMaxExcerptChars = 80;
 /// Doubles per particle in the state section: positions and velocities, 3 each.
@@ -57,7 +58,7 @@ class Writer {
     put(v.y());
     put(v.z());
   }
-  void section(const char (&tag)[4], const std::string& payload) {
+  void section(const char (&tag)[kTagBytes], const std::string& payload) {
     putBytes(tag, sizeof(tag));
     put(static_cast<std::uint64_t>(payload.size()));
     bytes_ += payload;
@@ -261,6 +262,7 @@ std::string encodeStateFile(const SimulationSnapshot& snapshot) {
   file.put(static_cast<std::uint64_t>(payload.bytes().size()));
   file.put(crc32(payload.bytes().data(), payload.bytes().size()));
   file.put(std::uint32_t{0});  // reserved, 0 in version 1
+  static_assert(sizeof(F::kMagic) + 4 + 4 + 8 + 4 + 4 == F::kHeaderBytes, "the header's fields fill kHeaderBytes");
   file.bytes() += payload.bytes();
   return std::move(file.bytes());
 }
@@ -300,17 +302,15 @@ bool decodeStateFile(const std::string& bytes, SimulationSnapshot* snapshot, std
     if (crc32(payload, held) != checksum) throw Malformed{"corrupted: the payload's CRC-32 does not match the header's"};
 
     Reader sections(payload, held, "payload");
-    std::string parts[3];
-    const char* const tags[3] = {kOptionsTag, kStateTag, kInputsTag};
-    for (int s = 0; s < 3; ++s) {
-      const std::string tag = sections.getBytes(4);
-      if (std::memcmp(tag.data(), tags[s], 4) != 0) {
-        throw Malformed{"corrupted: section " + std::to_string(s + 1) + " is not the expected " + std::string(tags[s], 4)};
+    std::array<std::string, kSectionCount> parts;
+    const std::array<const char*, kSectionCount> tags{kOptionsTag, kStateTag, kInputsTag};
+    for (std::size_t s = 0; s < kSectionCount; ++s) {
+      const std::string expected(tags[s], kTagBytes);
+      if (sections.getBytes(kTagBytes) != expected) {
+        throw Malformed{"corrupted: section " + std::to_string(s + 1) + " is not the expected " + expected};
       }
       const auto length = sections.get<std::uint64_t>();
-      if (length > sections.remaining()) {
-        throw Malformed{"corrupted: section " + std::string(tags[s], 4) + " is longer than the payload"};
-      }
+      if (length > sections.remaining()) throw Malformed{"corrupted: section " + expected + " is longer than the payload"};
       parts[s] = sections.getBytes(static_cast<std::size_t>(length));
     }
     sections.expectEnd();
