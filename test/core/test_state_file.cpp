@@ -187,11 +187,27 @@ void driveWithEveryInput(Simulation& sim) {
   for (int k = 0; k < 4; ++k) sim.advanceFrame();
 }
 
-std::string tempPath(const std::string& name) {
-  const fs::path folder = fs::temp_directory_path() / ("cloth_sim_state_test_" + std::to_string(::getpid()));
-  fs::create_directories(folder);
-  return (folder / name).string();
-}
+/// A folder of its own for one test, removed with everything in it when the test ends (pass or fail).
+class TempFolder {
+ public:
+  TempFolder() {
+    static int folders = 0;
+    path_ = fs::temp_directory_path() /
+            ("cloth_sim_state_test_" + std::to_string(::getpid()) + "_" + std::to_string(folders++));
+    fs::create_directories(path_);
+  }
+  ~TempFolder() {
+    std::error_code ignored;
+    fs::remove_all(path_, ignored);
+  }
+  TempFolder(const TempFolder&) = delete;
+  TempFolder& operator=(const TempFolder&) = delete;
+  std::string path() const { return path_.string(); }
+  std::string file(const std::string& name) const { return (path_ / name).string(); }
+
+ private:
+  fs::path path_;
+};
 
 class EveryIntegrator : public ::testing::TestWithParam<IntegratorKind> {};
 
@@ -205,7 +221,8 @@ TEST_P(EveryIntegrator, SaveRestoreAndAdvanceGivesTheBitsOfTheUninterruptedRun) 
       << "the released corner must hang on a new hook, or the test proves nothing about hooks";
   ASSERT_EQ(saved.inputs.grasps.size(), 1u);
 
-  const std::string path = tempPath(std::string(integratorName(GetParam())) + ".clothstate");
+  const TempFolder folder;
+  const std::string path = folder.file(std::string(integratorName(GetParam())) + ".clothstate");
   std::string error;
   ASSERT_TRUE(writeStateFile(path, saved, &error)) << error;
   SimulationSnapshot loaded;
@@ -235,7 +252,6 @@ TEST_P(EveryIntegrator, SaveRestoreAndAdvanceGivesTheBitsOfTheUninterruptedRun) 
   EXPECT_FALSE(sameMatrixBits(saved.state.positions_m, restored.state().positions_m)) << "the cloth did not move";
   EXPECT_FALSE(sameMatrixBits(original.state().positions_m, inputs_dropped.state().positions_m))
       << "dropping grasps, hooks, wind and tuning changed nothing: the comparison proves nothing";
-  fs::remove(path);
 }
 
 INSTANTIATE_TEST_SUITE_P(Snapshot, EveryIntegrator, ::testing::ValuesIn(kAllIntegrators),
@@ -599,29 +615,29 @@ TEST(StateFile, ErrorsQuoteNoFileContent) {
   EXPECT_EQ(error.find(secret.substr(0, 100)), std::string::npos) << "the message quotes the file: " << error;
   EXPECT_LT(error.size(), 300u) << error;
 
-  const std::string path = tempPath("not_a_state_file.yaml");
+  const TempFolder folder;
+  const std::string path = folder.file("not_a_state_file.yaml");
   std::ofstream(path) << "root:x:0:0:root:/root:/bin/bash\n";
   EXPECT_FALSE(readStateFile(path, &loaded, &error));
   EXPECT_NE(error.find("not a cloth_sim state file"), std::string::npos) << error;
   EXPECT_EQ(error.find("root:x"), std::string::npos) << error;
-  fs::remove(path);
 }
 
 TEST(StateFile, MissingDirectoryOrOversizedFilesAreRefusedBeforeReading) {
   SimulationSnapshot loaded;
   std::string error;
-  EXPECT_FALSE(readStateFile(tempPath("absent.clothstate"), &loaded, &error));
+  const TempFolder folder;
+  EXPECT_FALSE(readStateFile(folder.file("absent.clothstate"), &loaded, &error));
   EXPECT_NE(error.find("no such file"), std::string::npos) << error;
-  EXPECT_FALSE(readStateFile(fs::path(tempPath("x")).parent_path().string(), &loaded, &error));
+  EXPECT_FALSE(readStateFile(folder.path(), &loaded, &error));
   EXPECT_NE(error.find("not a regular file"), std::string::npos) << error;
   EXPECT_FALSE(readStateFile("", &loaded, &error));
   // A sparse file one byte over the limit: refused from its size alone (reading it would take seconds).
-  const std::string huge = tempPath("huge.clothstate");
+  const std::string huge = folder.file("huge.clothstate");
   { std::ofstream(huge).put('C'); }
   fs::resize_file(huge, StateFileFormat::kMaxFileBytes + 1);
   EXPECT_FALSE(readStateFile(huge, &loaded, &error));
   EXPECT_NE(error.find("more than a state file of the largest grid"), std::string::npos) << error;
-  fs::remove(huge);
 }
 
 TEST(StateFile, TheLargestGridWithEveryParticlePinnedFitsUnderTheLimit) {
@@ -675,11 +691,12 @@ TEST(StateFile, SizesOfOrdinarySnapshots) {
 
 TEST(StateFile, WritingIsAtomicAndAnUnwritablePathFailsWithTheReason) {
   const SimulationSnapshot saved = drivenSnapshot();
-  const std::string path = tempPath("atomic.clothstate");
+  const TempFolder temp;
+  const fs::path folder = temp.path();
+  const std::string path = temp.file("atomic.clothstate");
   std::string error;
   ASSERT_TRUE(writeStateFile(path, saved, &error)) << error;
   ASSERT_TRUE(writeStateFile(path, saved, &error)) << "overwriting: " << error;
-  const fs::path folder = fs::path(path).parent_path();
   const auto entries = [&folder] {
     std::vector<std::string> names;
     for (const auto& entry : fs::directory_iterator(folder)) names.push_back(entry.path().filename().string());
@@ -712,7 +729,6 @@ TEST(StateFile, WritingIsAtomicAndAnUnwritablePathFailsWithTheReason) {
   SimulationSnapshot loaded;
   ASSERT_TRUE(readStateFile(path, &loaded, &error)) << error;
   EXPECT_TRUE(sameSnapshot(saved, loaded));
-  fs::remove_all(folder);
 }
 
 }  // namespace
