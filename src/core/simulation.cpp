@@ -71,13 +71,9 @@ void Simulation::reset() {
 }
 
 bool Simulation::restoreState(const ClothState& state, std::string* error) {
-  if (state.particleCount() != grid_.particleCount() || state.velocities_m_per_s.cols() != state.positions_m.cols()) {
-    *error = "state has " + std::to_string(state.particleCount()) + " particles, the scene " +
-             std::to_string(grid_.particleCount());
-    return false;
-  }
-  state_ = state;
-  return true;
+  SimulationSnapshot current = snapshot();
+  current.state = state;
+  return restore(current, error);
 }
 
 ContactStats Simulation::integrateFrame(int substeps, StepReport* steps) {
@@ -441,6 +437,143 @@ Eigen::Matrix3Xf checkerColors(const Eigen::Matrix2Xd& uv) {
     colors.col(i) = ((square_u + square_v) % 2 == 0) ? light : dark;
   }
   return colors;
+}
+
+namespace {
+
+std::string vectorText(const Eigen::Vector3d& v) {
+  std::ostringstream text;
+  text << "(" << v.x() << ", " << v.y() << ", " << v.z() << ")";
+  return text.str();
+}
+
+/// Pin hooks and travels are differences of points that the guard and the options bound: a particle let go
+/// within kDivergenceBound_m less a pin motion within kMaxCoordinate_m; a rest position (origin within
+/// kMaxCoordinate_m plus the cloth's sides) less a pin position. No valid run leaves this box (m).
+constexpr double kMaxHookComponent_m =
+    Simulation::kDivergenceBound_m + OptionLimits::kMaxCoordinate_m + 2.0 * OptionLimits::kMaxClothSide_m;
+
+/// A particle this fast crosses the guard's whole box within the shortest frame the options allow: no
+/// state the guard accepts carries on from there, so a snapshot with such a speed is refused (m/s).
+constexpr double kMaxSpeed_m_per_s = 2.0 * Simulation::kDivergenceBound_m * OptionLimits::kMaxFrameRateHz;
+
+/// Empty when every column of `values` (3 x expected_columns) is finite with each component within
+/// +-bound (the guard's box); else what is wrong, naming `what`.
+std::string checkColumns(const std::string& what, const Eigen::Matrix3Xd& values, Eigen::Index expected_columns,
+                         double bound) {
+  if (values.cols() != expected_columns) {
+    return what + " has " + std::to_string(values.cols()) + " entries, expected " + std::to_string(expected_columns);
+  }
+  for (Eigen::Index i = 0; i < values.cols(); ++i) {
+    if (!values.col(i).allFinite() || values.col(i).cwiseAbs().maxCoeff() > bound) {
+      return what + "[" + std::to_string(i) + "] = " + vectorText(values.col(i)) +
+             ": each component must be finite and within +-" + std::to_string(bound);
+    }
+  }
+  return "";
+}
+
+/// Empty when the state fits a grid of `particles` particles; else the first problem.
+std::string checkState(const ClothState& state, int particles) {
+  if (std::string problem = checkColumns("state positions", state.positions_m, particles,
+                                         Simulation::kDivergenceBound_m);
+      !problem.empty()) {
+    return problem;
+  }
+  if (std::string problem = checkColumns("state velocities", state.velocities_m_per_s, particles, kMaxSpeed_m_per_s);
+      !problem.empty()) {
+    return problem;
+  }
+  if (!std::isfinite(state.time_s) || state.time_s < 0.0) {
+    return "state time " + std::to_string(state.time_s) + " s: must be finite and >= 0";
+  }
+  return "";
+}
+
+/// Empty when the inputs fit options (whose pins resolve to `pins`) on a grid of `particles`.
+std::string checkInputs(const ClothInputs& inputs, const std::vector<int>& pins, int particles) {
+  if (!inputs.wind_m_per_s.allFinite() || inputs.wind_m_per_s.norm() > OptionLimits::kMaxWindSpeed_m_per_s) {
+    return "wind " + vectorText(inputs.wind_m_per_s) + " m/s: must be finite and at most " +
+           std::to_string(OptionLimits::kMaxWindSpeed_m_per_s) + " m/s";
+  }
+  if (inputs.pins != pins) {
+    return "inputs pin " + std::to_string(inputs.pins.size()) + " particles that differ from the " +
+           std::to_string(pins.size()) + " the options' pins select";
+  }
+  const auto pin_count = static_cast<Eigen::Index>(pins.size());
+  if (std::string problem = checkColumns("pin hooks", inputs.pin_anchors_m, pin_count, kMaxHookComponent_m);
+      !problem.empty()) {
+    return problem;
+  }
+  if (std::string problem = checkColumns("pin travel", inputs.pin_travel_m, pin_count, kMaxHookComponent_m);
+      !problem.empty()) {
+    return problem;
+  }
+  if (inputs.grasps.size() > Simulation::kMaxGrasps) {
+    return std::to_string(inputs.grasps.size()) + " grasps: at most " + std::to_string(Simulation::kMaxGrasps);
+  }
+  for (std::size_t g = 0; g < inputs.grasps.size(); ++g) {
+    const Grasp& grasp = inputs.grasps[g];
+    const std::string name = "grasp " + std::to_string(grasp.id);
+    for (std::size_t other = 0; other < g; ++other) {
+      if (inputs.grasps[other].id == grasp.id) return name + " appears twice: ids must be unique";
+    }
+    if (grasp.particle < 0 || grasp.particle >= particles) {
+      return name + " holds particle " + std::to_string(grasp.particle) + ": must be in [0, " +
+             std::to_string(particles - 1) + "]";
+    }
+    if (!grasp.target_m.allFinite() || grasp.target_m.norm() > Simulation::kMaxGraspReach_m) {
+      return name + " target " + vectorText(grasp.target_m) + ": must be finite and within " +
+             std::to_string(Simulation::kMaxGraspReach_m) + " m of the origin";
+    }
+    if (!(grasp.stiffness_N_per_m >= 0.0 && grasp.stiffness_N_per_m <= OptionLimits::kMaxStiffnessN_per_m)) {
+      return name + " stiffness " + std::to_string(grasp.stiffness_N_per_m) + " N/m: must be in [0, " +
+             std::to_string(OptionLimits::kMaxStiffnessN_per_m) + "]";
+    }
+    if (!(grasp.damping_N_s_per_m >= 0.0 && grasp.damping_N_s_per_m <= OptionLimits::kMaxDampingN_s_per_m)) {
+      return name + " damping " + std::to_string(grasp.damping_N_s_per_m) + " N s/m: must be in [0, " +
+             std::to_string(OptionLimits::kMaxDampingN_s_per_m) + "]";
+    }
+    if (!grasp.extra_force_N.allFinite() || grasp.extra_force_N.norm() > Simulation::kMaxGraspForce_N) {
+      return name + " force " + vectorText(grasp.extra_force_N) + " N: must be finite and at most " +
+             std::to_string(Simulation::kMaxGraspForce_N) + " N";
+    }
+  }
+  return "";
+}
+
+}  // namespace
+
+SimulationSnapshot Simulation::snapshot() const { return SimulationSnapshot{options_, state_, inputs_}; }
+
+bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error) {
+  const SceneOptions& options = snapshot.options;
+  if (!sameGrid(options, options_)) {
+    *error = "the snapshot's grid (rows, cols, size, pose, pins or mass) differs from this scene's (" +
+             std::to_string(options_.rows) + "x" + std::to_string(options_.cols) + ")";
+    return false;
+  }
+  const std::vector<std::string> problems = validateSceneOptions(options);
+  if (!problems.empty()) {
+    *error = "snapshot options: " + problems.front();
+    return false;
+  }
+  std::string problem = checkState(snapshot.state, grid_.particleCount());
+  if (problem.empty()) problem = checkInputs(snapshot.inputs, inputs_.pins, grid_.particleCount());
+  if (!problem.empty()) {
+    *error = "snapshot " + problem;
+    return false;
+  }
+  if (options.integrator != options_.integrator || options.solver.tolerance != options_.solver.tolerance ||
+      options.solver.max_iterations != options_.solver.max_iterations) {
+    integrator_ = makeIntegrator(options.integrator, options.solver);
+  }
+  options_ = options;
+  inputs_ = snapshot.inputs;
+  state_ = snapshot.state;
+  // Which pins hang on hooks follows from the grasps just restored (as grab and release keep it).
+  force_model_.refreshConstraints();
+  return true;
 }
 
 }  // namespace cloth_sim::core

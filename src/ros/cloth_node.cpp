@@ -1,6 +1,7 @@
 #include "cloth_sim/ros/cloth_node.h"
 
 #include "cloth_sim/io/scene_file.h"
+#include "cloth_sim/io/state_file.h"
 #include "cloth_sim/io/texture.h"
 #include "cloth_sim/ros/conversions.h"
 
@@ -81,6 +82,8 @@ bool ClothNode::start(std::string* error) {
   pause_srv_ = pnh_.advertiseService(Names::kPauseService, &ClothNode::onPause, this);
   step_srv_ = pnh_.advertiseService(Names::kStepService, &ClothNode::onStep, this);
   load_scene_srv_ = pnh_.advertiseService(Names::kLoadSceneService, &ClothNode::onLoadScene, this);
+  save_state_srv_ = pnh_.advertiseService(Names::kSaveStateService, &ClothNode::onSaveState, this);
+  load_state_srv_ = pnh_.advertiseService(Names::kLoadStateService, &ClothNode::onLoadState, this);
 
   // In its own namespace: dynamic_reconfigure leaves its values on the parameter server, where the next
   // start-up would otherwise read them as overrides of the next scene.
@@ -458,6 +461,56 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   dropped_frames_ = 0;
   window_sim_s_ = 0.0;
   window_start_ = now;
+}
+
+bool ClothNode::onSaveState(cloth_sim::SaveState::Request& request, cloth_sim::SaveState::Response& response) {
+  std::string error;
+  if (!core::writeStateFile(request.path, simulation_->snapshot(), &error)) {
+    response.success = false;
+    response.message = "not saved: " + error;
+    return true;
+  }
+  response.success = true;
+  response.message = "saved frame " + std::to_string(simulation_->state().frame) + " to " + request.path;
+  ROS_INFO("cloth_node: %s", response.message.c_str());
+  return true;
+}
+
+bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::LoadState::Response& response) {
+  // Messages name the path and numbers only: never text from the file (any ROS peer may ask).
+  const auto refuse = [&response](const std::string& reason) {
+    response.success = false;
+    response.message = "not loaded: " + reason + "; the running cloth is untouched";
+    return true;
+  };
+  core::SimulationSnapshot snapshot;
+  std::string error;
+  if (!core::readStateFile(request.path, &snapshot, &error)) return refuse(error);
+  const core::ClothGrid& grid = simulation_->grid();
+  if (snapshot.options.rows != grid.rows || snapshot.options.cols != grid.cols) {
+    return refuse(request.path + " holds a " + std::to_string(snapshot.options.rows) + "x" +
+                  std::to_string(snapshot.options.cols) + " cloth, the running scene is " + std::to_string(grid.rows) +
+                  "x" + std::to_string(grid.cols) + ": load a scene of that size first (~load_scene)");
+  }
+  Eigen::Matrix3Xf colors;
+  const bool new_texture = snapshot.options.texture != simulation_->options().texture;
+  if (new_texture && !core::sceneVertexColors(snapshot.options.texture, grid.uv, &colors, &error)) {
+    return refuse("its texture does not load");
+  }
+  if (!simulation_->restore(snapshot, &error)) return refuse(error);
+  if (new_texture) simulation_->setVertexColors(colors);
+  timer_.setPeriod(ros::Duration(simulation_->options().frameDuration_s()));
+  last_report_ = core::FrameReport();
+  reanchor();  // the loaded frame is due now: the run continues from here at the frame rate
+  pushConfig();
+  publish(ros::Time::now());
+  std::ostringstream message;
+  message << "loaded frame " << simulation_->state().frame << " (t = " << simulation_->state().time_s << " s, "
+          << grid.rows << "x" << grid.cols << ", " << simulation_->grasps().size() << " grasps) from " << request.path;
+  response.success = true;
+  response.message = message.str();
+  ROS_INFO("cloth_node: %s", response.message.c_str());
+  return true;
 }
 
 }  // namespace cloth_sim

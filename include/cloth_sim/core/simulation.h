@@ -9,6 +9,7 @@
 #include "cloth_sim/core/inputs.h"
 #include "cloth_sim/core/integrators.h"
 #include "cloth_sim/core/options.h"
+#include "cloth_sim/core/snapshot.h"
 #include "cloth_sim/core/stability_guard.h"
 #include "cloth_sim/core/state.h"
 
@@ -100,7 +101,8 @@ class Simulation {
 
   /// Back to the scene's initial state: grasps released, pins re-hooked. Tuning (retune, wind) is kept.
   void reset();
-  /// Replaces the whole state (a saved snapshot); false with *error if the particle count differs.
+  /// Replaces the state, keeping options and inputs; false with *error (state unchanged) if it would not
+  /// pass restore(): wrong particle count, non-finite or out-of-bound values.
   bool restoreState(const ClothState& state, std::string* error);
 
   /// Live tuning: accepts new options when they keep the grid (rows, cols, size, pose, pins and mass
@@ -134,6 +136,16 @@ class Simulation {
   double maxStructuralStrain() const;
   /// What `auto` remembers between frames (part of a snapshot: a restored run chooses the same substeps).
   const GuardMemory& guardMemory() const { return memory_; }
+
+  /// Everything needed to continue this run elsewhere: options in force, state and inputs.
+  SimulationSnapshot snapshot() const;
+  /// Replaces options, state and inputs with the snapshot's, all or nothing: false with *error (and
+  /// nothing changed) unless the options validate and keep the grid (as retune requires), the state has
+  /// this grid's particle count and is finite and within kDivergenceBound_m, and the inputs fit (the
+  /// resolved pins, one hook and travel per pin, at most kMaxGrasps grasps with unique ids on existing
+  /// particles, finite values within the limits grab and the wind topic enforce). Advancing after a
+  /// restore gives the same bits as the run the snapshot was taken from.
+  bool restore(const SimulationSnapshot& snapshot, std::string* error);
 
  private:
   /// Substeps of a frame's first computation: the fixed count, or for `auto` the count the stable step

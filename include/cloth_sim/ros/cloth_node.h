@@ -5,6 +5,8 @@
 #include "cloth_sim/ClothConfig.h"
 #include "cloth_sim/Grasp.h"
 #include "cloth_sim/LoadScene.h"
+#include "cloth_sim/LoadState.h"
+#include "cloth_sim/SaveState.h"
 #include "cloth_sim/Step.h"
 #include "cloth_sim/core/simulation.h"
 
@@ -36,6 +38,9 @@ struct Names {
   static constexpr const char* kPauseService = "pause";
   static constexpr const char* kStepService = "step";
   static constexpr const char* kLoadSceneService = "load_scene";
+  /// The whole simulation to and from a state file (doc/STATE_FILE.md).
+  static constexpr const char* kSaveStateService = "save_state";
+  static constexpr const char* kLoadStateService = "load_state";
   static constexpr const char* kSceneParam = "scene";
   static constexpr const char* kFrameIdParam = "frame_id";
   /// Mesh markers per second at most (the cloth still advances at the frame rate).
@@ -82,6 +87,9 @@ class ClothNode {
   bool onPause(std_srvs::SetBool::Request& request, std_srvs::SetBool::Response& response);
   bool onStep(cloth_sim::Step::Request& request, cloth_sim::Step::Response& response);
   bool onLoadScene(cloth_sim::LoadScene::Request& request, cloth_sim::LoadScene::Response& response);
+  bool onSaveState(cloth_sim::SaveState::Request& request, cloth_sim::SaveState::Response& response);
+  /// All or nothing: a file that does not read, validate or fit the running grid leaves the cloth as it was.
+  bool onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::LoadState::Response& response);
   void onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t level);
   /// The options in force as a reconfigure config.
   void fillConfig(cloth_sim::ClothConfig* config) const;
@@ -97,6 +105,7 @@ class ClothNode {
   ros::Publisher mesh_pub_, state_pub_, colliders_pub_;
   ros::Subscriber wind_sub_, grasp_sub_;
   ros::ServiceServer reset_srv_, pause_srv_, step_srv_, load_scene_srv_;
+  ros::ServiceServer save_state_srv_, load_state_srv_;
   ros::Timer timer_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   tf2_ros::StaticTransformBroadcaster static_broadcaster_;
