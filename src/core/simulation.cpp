@@ -544,7 +544,7 @@ std::string checkInputs(const ClothInputs& inputs, const std::vector<int>& pins,
 
 }  // namespace
 
-SimulationSnapshot Simulation::snapshot() const { return SimulationSnapshot{options_, state_, inputs_}; }
+SimulationSnapshot Simulation::snapshot() const { return SimulationSnapshot{options_, state_, inputs_, memory_}; }
 
 bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error) {
   const SceneOptions& options = snapshot.options;
@@ -560,6 +560,15 @@ bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error)
   }
   std::string problem = checkState(snapshot.state, grid_.particleCount());
   if (problem.empty()) problem = checkInputs(snapshot.inputs, inputs_.pins, grid_.particleCount());
+  const GuardMemory& guard = snapshot.guard;
+  if (problem.empty() && (guard.auto_scale < 1 || guard.auto_scale > GuardMemory::kMaxScale ||
+                          (guard.auto_scale & (guard.auto_scale - 1)) != 0 || guard.consecutive_rollbacks < 0 ||
+                          guard.consecutive_rollbacks >= GuardMemory::kRollbacksBeforeRecovery)) {
+    problem = "guard memory: auto scale " + std::to_string(guard.auto_scale) + " (a power of two up to " +
+              std::to_string(GuardMemory::kMaxScale) + "), rollbacks in a row " +
+              std::to_string(guard.consecutive_rollbacks) + " (below " +
+              std::to_string(GuardMemory::kRollbacksBeforeRecovery) + ")";
+  }
   if (!problem.empty()) {
     *error = "snapshot " + problem;
     return false;
@@ -571,6 +580,8 @@ bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error)
   options_ = options;
   inputs_ = snapshot.inputs;
   state_ = snapshot.state;
+  memory_ = snapshot.guard;
+  bound_stale_ = true;
   // Which pins hang on hooks follows from the grasps just restored (as grab and release keep it).
   force_model_.refreshConstraints();
   return true;

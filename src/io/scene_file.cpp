@@ -378,7 +378,12 @@ std::string sceneYaml(const SceneOptions& o) {
   number("grasp_stiffness", o.grasp_stiffness_N_per_m);
   number("grasp_damping", o.grasp_damping_N_s_per_m);
   key("integrator") << integratorName(o.integrator);
-  key("substeps") << o.substeps;
+  if (o.autoSubsteps()) {
+    key("substeps") << kAutoSubstepsName;
+  } else {
+    key("substeps") << o.substeps;
+  }
+  boolean("guard_retries", o.guard_retries);
   number("solver_tolerance", o.solver.tolerance);
   key("solver_max_iterations") << o.solver.max_iterations;
   key("threads") << o.threads;

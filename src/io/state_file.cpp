@@ -27,7 +27,10 @@ using F = StateFileFormat;
 constexpr char kOptionsTag[4] = {'O', 'P', 'T', 'S'};  ///< the options as scene YAML (sceneYaml)
 constexpr char kStateTag[4] = {'S', 'T', 'A', 'T'};    ///< ClothState
 constexpr char kInputsTag[4] = {'I', 'N', 'P', 'T'};   ///< ClothInputs
-constexpr std::size_t kSectionCount = 3;
+constexpr char kGuardTag[4] = {'G', 'A', 'R', 'D'};    ///< GuardMemory (version 2 on)
+constexpr std::size_t kSectionCount = 4;
+/// Version 1 files end after the inputs.
+constexpr std::size_t kVersion1SectionCount = 3;
 constexpr std::size_t kTagBytes = sizeof(kOptionsTag);
 /// Longest excerpt of a validation problem quoted in an error (it may hold a string from the file).
 constexpr std::size_t kMaxExcerptChars = 80;
@@ -225,6 +228,22 @@ ClothInputs decodeInputs(const std::string& bytes) {
   return inputs;
 }
 
+std::string encodeGuard(const GuardMemory& guard) {
+  Writer out;
+  out.put(static_cast<std::int32_t>(guard.auto_scale));
+  out.put(static_cast<std::int32_t>(guard.consecutive_rollbacks));
+  return out.bytes();
+}
+
+GuardMemory decodeGuard(const std::string& bytes) {
+  Reader in(bytes.data(), bytes.size(), "guard section");
+  GuardMemory guard;
+  guard.auto_scale = in.get<std::int32_t>();
+  guard.consecutive_rollbacks = in.get<std::int32_t>();
+  in.expectEnd();
+  return guard;
+}
+
 std::uint32_t byteSwapped(std::uint32_t value) {
   return ((value & 0xffu) << 24) | ((value & 0xff00u) << 8) | ((value >> 8) & 0xff00u) | (value >> 24);
 }
@@ -255,6 +274,7 @@ std::string encodeStateFile(const SimulationSnapshot& snapshot) {
   payload.section(kOptionsTag, sceneYaml(snapshot.options));
   payload.section(kStateTag, encodeState(snapshot.state));
   payload.section(kInputsTag, encodeInputs(snapshot.inputs));
+  payload.section(kGuardTag, encodeGuard(snapshot.guard));
   Writer file;
   file.putBytes(F::kMagic, sizeof(F::kMagic));
   file.put(F::kByteOrderMark);
@@ -303,8 +323,9 @@ bool decodeStateFile(const std::string& bytes, SimulationSnapshot* snapshot, std
 
     Reader sections(payload, held, "payload");
     std::array<std::string, kSectionCount> parts;
-    const std::array<const char*, kSectionCount> tags{kOptionsTag, kStateTag, kInputsTag};
-    for (std::size_t s = 0; s < kSectionCount; ++s) {
+    const std::array<const char*, kSectionCount> tags{kOptionsTag, kStateTag, kInputsTag, kGuardTag};
+    const std::size_t section_count = version == 1 ? kVersion1SectionCount : kSectionCount;
+    for (std::size_t s = 0; s < section_count; ++s) {
       const std::string expected(tags[s], kTagBytes);
       if (sections.getBytes(kTagBytes) != expected) {
         throw Malformed{"corrupted: section " + std::to_string(s + 1) + " is not the expected " + expected};
@@ -319,6 +340,7 @@ bool decodeStateFile(const std::string& bytes, SimulationSnapshot* snapshot, std
     read.options = decodeOptions(parts[0]);
     read.state = decodeState(parts[1]);
     read.inputs = decodeInputs(parts[2]);
+    if (section_count > kVersion1SectionCount) read.guard = decodeGuard(parts[3]);
     const int particles = read.options.rows * read.options.cols;
     if (read.state.particleCount() != particles) {
       throw Malformed{"state section: " + std::to_string(read.state.particleCount()) + " particles for a " +

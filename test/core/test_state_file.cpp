@@ -112,6 +112,7 @@ bool sameBits(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   check(sameBits(a.grasp_damping_N_s_per_m, b.grasp_damping_N_s_per_m), "grasp_damping");
   check(a.integrator == b.integrator, "integrator");
   check(a.substeps == b.substeps, "substeps");
+  check(a.guard_retries == b.guard_retries, "guard_retries");
   check(sameBits(a.solver.tolerance, b.solver.tolerance), "solver_tolerance");
   check(a.solver.max_iterations == b.solver.max_iterations, "solver_max_iterations");
   check(a.threads == b.threads, "threads");
@@ -125,6 +126,9 @@ bool sameBits(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
 
 ::testing::AssertionResult sameSnapshot(const SimulationSnapshot& a, const SimulationSnapshot& b) {
   if (auto options = sameOptions(a.options, b.options); !options) return options;
+  if (a.guard.auto_scale != b.guard.auto_scale || a.guard.consecutive_rollbacks != b.guard.consecutive_rollbacks) {
+    return ::testing::AssertionFailure() << "guard memory differs";
+  }
   const ClothState& sa = a.state;
   const ClothState& sb = b.state;
   if (!sameMatrixBits(sa.positions_m, sb.positions_m)) return ::testing::AssertionFailure() << "positions differ";
@@ -306,7 +310,9 @@ TEST(Restore, AnotherGridIsRefused) {
 }
 
 TEST(Restore, InvalidOptionsAreRefusedByName) {
-  expectRefused([](SimulationSnapshot& s) { s.options.substeps = 0; }, "substeps");
+  expectRefused([](SimulationSnapshot& s) { s.options.substeps = -1; }, "substeps");
+  expectRefused([](SimulationSnapshot& s) { s.guard.auto_scale = 3; }, "guard memory");
+  expectRefused([](SimulationSnapshot& s) { s.guard.consecutive_rollbacks = -1; }, "guard memory");
   expectRefused([](SimulationSnapshot& s) { s.options.springs[0].stiffness_N_per_m = kNaN; }, "stiffness");
 }
 
@@ -460,6 +466,7 @@ SceneOptions randomOptions(std::mt19937_64& random) {
   o.grasp_damping_N_s_per_m = d();
   o.integrator = kAllIntegrators[random() % std::size(kAllIntegrators)];
   o.substeps = i();
+  o.guard_retries = random() % 2 == 0;
   o.solver.tolerance = d();
   o.solver.max_iterations = i();
   o.threads = i();
@@ -593,7 +600,7 @@ TEST(StateFile, ContentsThatPassTheChecksumAreStillChecked) {
   expectDecodeFails(withChecksum(bytes), "particles do not fit");
   // Options that are not YAML, or not valid options.
   SimulationSnapshot bad = saved;
-  bad.options.substeps = 0;
+  bad.options.substeps = -1;
   expectDecodeFails(encodeStateFile(bad), "substeps");
   // A grid that disagrees with the state's size.
   bad = saved;
@@ -684,8 +691,9 @@ TEST(StateFile, SizesOfOrdinarySnapshots) {
     snapshot.inputs.pin_travel_m.setZero(3, 2);
     const std::size_t size = encodeStateFile(snapshot).size();
     std::printf("[ size       ] hanging %dx%d: %zu bytes\n", side, side, size);
-    EXPECT_EQ(size, StateFileFormat::kHeaderBytes + 3 * 12 + sceneYaml(snapshot.options).size() +
-                        (8 + 8 + 8 + 48 * static_cast<std::size_t>(side * side)) + (24 + 8 + 2 * 4 + 2 * 48 + 8));
+    // Header, 4 section headers (tag + length), options text, state, inputs, guard memory (2 x int32).
+    EXPECT_EQ(size, StateFileFormat::kHeaderBytes + 4 * 12 + sceneYaml(snapshot.options).size() +
+                        (8 + 8 + 8 + 48 * static_cast<std::size_t>(side * side)) + (24 + 8 + 2 * 4 + 2 * 48 + 8) + 8);
   }
 }
 

@@ -16,8 +16,9 @@ namespace cloth_sim::core {
 struct StateFileFormat {
   /// The first 8 bytes of every state file.
   static constexpr char kMagic[8] = {'C', 'L', 'O', 'T', 'H', 'S', 'A', 'V'};
-  /// Written now; readers accept 1 up to this (a newer file is refused with its version).
-  static constexpr std::uint32_t kVersion = 1;
+  /// Written now; readers accept 1 up to this (a newer file is refused with its version). Version 2 added
+  /// the guard's memory (GARD); a version 1 file restores with a fresh one.
+  static constexpr std::uint32_t kVersion = 2;
   /// Written in the writer's byte order: read back as 0x04030201 on a machine of the other order.
   static constexpr std::uint32_t kByteOrderMark = 0x01020304;
   static constexpr std::size_t kHeaderBytes = 32;
