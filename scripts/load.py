@@ -76,6 +76,13 @@ def rss_kib(pid):
     raise RuntimeError("no VmRSS for process %d" % pid)
 
 
+def cpu_s(pid):
+    """CPU time the process has used so far (user + system), s."""
+    with open("/proc/%d/stat" % pid) as stat:
+        fields = stat.read().rsplit(")", 1)[1].split()  # after the command name, which may hold spaces
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")  # utime, stime
+
+
 def input_stats(node, topics):
     """{topic: (messages received, messages dropped)} from the node's getBusStats: roscpp answers
     [publications, subscriptions] (without the usual status code), each subscription as
@@ -237,12 +244,15 @@ def measure(node="/cloth_node", seconds=30.0, wind_hz=10000.0, grasp_hz=1000.0):
         stats_before = input_stats(node, inputs)
         rss_before = rss_kib(pid)
         rss_peak = rss_before
+        cpu_before = cpu_s(pid)
         start = time.monotonic()
         go.set()
         while time.monotonic() - start < seconds:
             time.sleep(RSS_SAMPLE_S)
             rss_peak = max(rss_peak, rss_kib(pid))
         end = time.monotonic()
+        node_cpu = (cpu_s(pid) - cpu_before) / (end - start)
+        load_average = os.getloadavg()[0]
         sent_rates = {}
         for _ in floods:
             kind_name, value = sent.get(timeout=READY_S)
@@ -272,6 +282,7 @@ def measure(node="/cloth_node", seconds=30.0, wind_hz=10000.0, grasp_hz=1000.0):
         "state_hz": rate(states), "mesh_hz": rate(meshes), "frames_per_s": frames_per_s,
         "frame_period_ms": {"p50": percentile(periods_ms, 0.50), "p95": percentile(periods_ms, 0.95),
                             "p99": percentile(periods_ms, 0.99), "max": periods_ms[-1] if periods_ms else float("nan")},
+        "node_cpu_share": node_cpu, "load_average": load_average, "cpus": os.cpu_count(),
         "rss_mib": {"before": rss_before / KIB_PER_MIB, "after": rss_after / KIB_PER_MIB, "peak": rss_peak / KIB_PER_MIB},
     }
 
@@ -281,7 +292,8 @@ def report(figures, scene):
     rss = figures["rss_mib"]
     inputs = figures["node_inputs"]
     lines = [
-        "load: %.1f s on %s" % (figures["seconds"], scene),
+        "load: %.1f s on %s; machine: %d CPUs, load average %.1f at the end" % (
+            figures["seconds"], scene, figures["cpus"], figures["load_average"]),
         "  sent     ~wind %.0f msg/s (target %.0f), ~grasp %.0f msg/s (target %.0f)" % (
             figures["wind_sent_hz"], figures["wind_target_hz"], figures["grasp_sent_hz"], figures["grasp_target_hz"]),
     ]
@@ -290,6 +302,7 @@ def report(figures, scene):
             lines.append("  node     ~%s: %d received, %d dropped by its bounded queue" % (
                 name, inputs[name]["received"], inputs[name]["dropped"]))
     lines += [
+        "  node CPU %.0f %% of one core" % (100.0 * figures["node_cpu_share"]),
         "  ~state   %.1f Hz received, %.1f frames/s advanced" % (figures["state_hz"], figures["frames_per_s"]),
         "  ~mesh    %.1f Hz received" % figures["mesh_hz"],
         "  frame period (~state stamps): p50 %.1f ms, p95 %.1f ms, p99 %.1f ms, max %.1f ms" % (

@@ -17,7 +17,7 @@ int main(int argc, char** argv) {
     ROS_FATAL("cloth_node: %s", error.c_str());
     return 1;
   }
-  cloth_sim::MasterWatch master_watch(node_handle);
+  cloth_sim::MasterWatch master_watch;
   ros::spin();
   return 0;
 }

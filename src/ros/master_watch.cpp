@@ -79,9 +79,17 @@ std::string joined(const std::vector<std::string>& names) {
 
 }  // namespace
 
-MasterWatch::MasterWatch(ros::NodeHandle& node_handle) {
+MasterWatch::MasterWatch() : spinner_(1, &queue_) {
   rememberServices();
+  ros::NodeHandle node_handle;
+  node_handle.setCallbackQueue(&queue_);
   timer_ = node_handle.createWallTimer(ros::WallDuration(kCheckPeriod_s), &MasterWatch::check, this);
+  spinner_.start();
+}
+
+MasterWatch::~MasterWatch() {
+  spinner_.stop();
+  timer_.stop();
 }
 
 void MasterWatch::check(const ros::WallTimerEvent&) {

@@ -176,7 +176,9 @@ class Faults(unittest.TestCase):
         return node
 
     def expect_clean_exit(self, node, master, signal_number):
+        start = time.monotonic()
         code = node.stop(signal_number)
+        print("%s: exit code %s after %.1f s" % (signal_number.name, code, time.monotonic() - start))
         self.assertIsNotNone(code, "still running %.0f s after %s:\n%s" % (EXIT_S, signal_number.name, node.output()))
         self.assertEqual(code, 0, "%s: exit code %s\n%s" % (signal_number.name, code, node.output()))
         self.assertEqual(master.registrations(), set(), "left registered after " + signal_number.name)
@@ -187,9 +189,11 @@ class Faults(unittest.TestCase):
         node = self.start_node(first, ["_rows:=8", "_cols:=8"])
         first.stop()
         second = self.start_master()
+        start = time.monotonic()
         self.assertTrue(wait_for(lambda: second.serves("pause", "step", "reset") and
                                  ("pub", NODE + "/state") in second.registrations(), APPEAR_S),
                         "the node never registered with the new master:\n" + node.output())
+        print("registered with the new master %.1f s after it answered" % (time.monotonic() - start))
         frame = latest_frame(second)
         self.assertIsNotNone(frame, "a subscriber started after the restart got no ~state")
         answer = call(second, "pause", "true")

@@ -8,7 +8,9 @@
 // diagnostics and roscpp's /rosout alike), so nothing in the node has to be rebuilt.
 #pragma once
 
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
+#include <ros/spinner.h>
 
 #include <set>
 #include <string>
@@ -20,8 +22,9 @@ class MasterWatch {
   /// How often the master is asked, s of wall time (also how long a restart goes unnoticed at most).
   static constexpr double kCheckPeriod_s = 1.0;
 
-  /// Starts checking on `node_handle`'s callback queue.
-  explicit MasterWatch(ros::NodeHandle& node_handle);
+  /// Starts checking, on a thread of its own: the calls to a slow or vanished master must not delay frames.
+  MasterWatch();
+  ~MasterWatch();
 
  private:
   void check(const ros::WallTimerEvent& event);
@@ -33,9 +36,11 @@ class MasterWatch {
   /// Registers every publication, subscription and remembered service again; false with what failed.
   bool registerAgain(std::string* report) const;
 
-  ros::WallTimer timer_;
   bool master_lost_ = false;  ///< the master stopped answering and has not been seen since
   std::set<std::string> services_;
+  ros::CallbackQueue queue_;
+  ros::WallTimer timer_;
+  ros::AsyncSpinner spinner_;  ///< last: stopped first, before what check() uses
 };
 
 }  // namespace cloth_sim
