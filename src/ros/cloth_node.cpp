@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <set>
 #include <sstream>
 
@@ -405,10 +406,10 @@ std::string ClothNode::refuseStep(const StepJob& job) const {
   const double most_frames = frame_cost_s > 0.0 ? std::max(1.0, std::floor(kMaxStepWork_s / frame_cost_s)) : 0.0;
   if (frame_cost_s > 0.0 && job.frames > most_frames) {
     std::ostringstream reason;
-    reason << "frames = " << job.frames << " would take about " << std::lround(job.frames * frame_cost_s)
-           << " s at " << step_cost_ms_ << " ms per frame (the last frame's cost); one call may take at most "
-           << kMaxStepWork_s << " s: ask for at most " << static_cast<std::uint64_t>(most_frames)
-           << " frames per call";
+    reason << std::fixed << std::setprecision(1) << "frames = " << job.frames << " would take about "
+           << std::lround(job.frames * frame_cost_s) << " s at " << step_cost_ms_
+           << " ms per frame (the last frame's cost); one call may take at most " << kMaxStepWork_s
+           << " s: ask for at most " << static_cast<std::uint64_t>(most_frames) << " frames per call";
     return reason.str();
   }
   return "";
@@ -431,17 +432,25 @@ void ClothNode::runStepChunk(const std::shared_ptr<StepJob>& job) {
   const auto chunk_end = std::chrono::steady_clock::now() + std::chrono::duration<double>(kStepChunk_s);
   while (simulation_->state().frame - job->first_frame < job->frames) {
     const auto now = std::chrono::steady_clock::now();
-    if (!ros::ok()) return cancelStep("the node is shutting down");
+    if (!ros::ok()) {
+      cancelStep("the node is shutting down");
+      return;
+    }
     if (now - job->start_time > overrun) {
       std::ostringstream reason;
-      reason << "the call ran past " << kMaxStepWork_s * kStepOverrunFactor << " s (frames grew dearer than the "
-             << kMaxStepWork_s << " s estimate allowed)";
-      return cancelStep(reason.str());
+      reason << "the call ran past " << kMaxStepWork_s * kStepOverrunFactor << " s, " << kStepOverrunFactor
+             << " times the " << kMaxStepWork_s << " s a call may be expected to take";
+      cancelStep(reason.str());
+      return;
     }
-    if (now >= chunk_end) return queueStepChunk(job);  // the rest after the callbacks queued meanwhile
+    if (now >= chunk_end) {
+      queueStepChunk(job);  // the rest after the callbacks queued meanwhile
+      return;
+    }
     if (!advanceFrames(1)) {
       const std::uint64_t advanced = simulation_->state().frame - job->first_frame;
-      return finishStep(false, "stopped after " + std::to_string(advanced) + " frames: " + last_report_.reason);
+      finishStep(false, "stopped after " + std::to_string(advanced) + " frames: " + last_report_.reason);
+      return;
     }
   }
   finishStep(true, "advanced " + std::to_string(job->frames) + " frames");

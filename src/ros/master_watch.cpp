@@ -104,7 +104,9 @@ void MasterWatch::check(const ros::WallTimerEvent&) {
     return;
   }
   if (masterKnowsThisNode()) {
-    if (master_lost_) ROS_INFO("cloth_node: the ROS master at %s answers again and still knows this node", master.c_str());
+    if (master_lost_) {
+      ROS_INFO("cloth_node: the ROS master at %s answers again and still knows this node", master.c_str());
+    }
     master_lost_ = false;
     rememberServices();
     return;

@@ -91,6 +91,7 @@ class Runtime(unittest.TestCase):
             repeat.close()
         self.assertIsNotNone(last, "no ~state after the calls")
         rate_hz = calls / elapsed_s
+        print("%d frames in %.1f s of ~pause false at %.0f calls/s" % (last - first, elapsed_s, rate_hz))
         self.assertGreaterEqual(rate_hz, MIN_FLOOD_RATE_HZ, "the calls came too slowly to test anything")
         expected = elapsed_s * FRAME_RATE_HZ
         self.assertGreaterEqual(last - first, MIN_FRAME_SHARE * expected,
