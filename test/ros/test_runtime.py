@@ -17,7 +17,9 @@ from cloth_sim.msg import ClothState
 from cloth_sim.srv import Step
 from std_srvs.srv import SetBool, Trigger
 
-NODE = "/cloth_node"
+NODE = "/cloth_node"  # 48x48: frames dear enough for a ~step to run for seconds
+# 20x20: frames cheap enough for its spin thread to answer ~pause far faster than the frame rate.
+SMALL_NODE = "/cloth_small"
 FRAME_RATE_HZ = 50.0  # the hanging scene's
 DEADLINE_S = 30.0
 # Defect 5 was seen at 180 calls/s; a flood slower than twice the frame rate would leave gaps of a whole
@@ -32,10 +34,10 @@ MAX_STEP_FRAMES = 10000  # ClothNode::kMaxStepFrames
 class States:
     """Keeps the latest ClothState and lets a test wait for one that satisfies a condition."""
 
-    def __init__(self):
+    def __init__(self, node):
         self.condition = threading.Condition()
         self.latest = None
-        self.subscriber = rospy.Subscriber(NODE + "/state", ClothState, self.received, queue_size=10)
+        self.subscriber = rospy.Subscriber(node + "/state", ClothState, self.received, queue_size=10)
 
     def received(self, state):
         with self.condition:
@@ -60,24 +62,25 @@ class States:
         return None if state is None else state.frame
 
 
-def service(name, kind):
-    rospy.wait_for_service(NODE + "/" + name, DEADLINE_S)
-    return rospy.ServiceProxy(NODE + "/" + name, kind)
+def service(name, kind, node=NODE):
+    rospy.wait_for_service(node + "/" + name, DEADLINE_S)
+    return rospy.ServiceProxy(node + "/" + name, kind)
 
 
 class Runtime(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.states = States()
+        cls.states = States(NODE)
         cls.pause = service("pause", SetBool)
         cls.step = service("step", Step)
         cls.reset = service("reset", Trigger)
 
     def test_repeated_pause_false_keeps_the_cloth_running(self):
-        self.assertTrue(self.pause(False).success)
-        repeat = rospy.ServiceProxy(NODE + "/pause", SetBool, persistent=True)
+        self.assertTrue(service("pause", SetBool, SMALL_NODE)(False).success)
+        repeat = rospy.ServiceProxy(SMALL_NODE + "/pause", SetBool, persistent=True)
+        states = States(SMALL_NODE)
         try:
-            first = self.states.next_frame()
+            first = states.next_frame()
             self.assertIsNotNone(first, "no ~state")
             start = time.monotonic()
             calls = 0
@@ -86,7 +89,7 @@ class Runtime(unittest.TestCase):
                 self.assertTrue(answer.success, answer.message)
                 calls += 1
             elapsed_s = time.monotonic() - start
-            last = self.states.next_frame()
+            last = states.next_frame()
         finally:
             repeat.close()
         self.assertIsNotNone(last, "no ~state after the calls")
