@@ -630,6 +630,7 @@ bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::L
     return refuse("its texture does not load");
   }
   if (!simulation_->restore(snapshot, &error)) return refuse(error);
+  cancelStep("~load_state replaced the state");
   if (new_texture) simulation_->setVertexColors(colors);
   timer_.setPeriod(ros::Duration(simulation_->options().frameDuration_s()));
   last_report_ = core::FrameReport();
