@@ -9,6 +9,10 @@
 #   make bench   build, then time cloth_sim against Bullet's soft-body cloth at 20, 64, 128 and 256
 #                (scripts/bench.py): markdown tables on stdout, raw JSON lines in .build/bench_results.json
 #                (make bench BENCH_ARGS=--quick, or BENCH_ARGS="--sizes 20,64 --frames 20")
+#   make accuracy  build, then measure cost against error of every integrator and substep count on hanging, flag
+#                and ball at 20-80 per side, stability maps and each scene's terms (scripts/accuracy.py, about
+#                25 minutes): writes doc/ACCURACY.md and doc/images/accuracy_*.png, raw outputs in .build/accuracy
+#                (make accuracy ACCURACY_ARGS=--reuse rewrites the page from them without running again)
 #   make pictures  record every scene (or SCENES="flag ball") and render it in rviz under Xvfb into
 #                doc/images/rviz_<scene>.png, plus the demo's picture as doc/images/demo_drape.png
 #   make clean   remove the private workspace and the demo outputs
@@ -19,7 +23,7 @@
 SHELL := /bin/bash
 .SHELLFLAGS := -eu -o pipefail -c
 .DEFAULT_GOAL := build
-.PHONY: deps build test demo bench pictures clean help
+.PHONY: deps build test demo bench accuracy pictures clean help
 
 # Debian 12's own ROS 1 packages (no /opt/ros); this is the one list of what the project needs.
 DEB_PACKAGES := build-essential cmake pkg-config \
@@ -127,6 +131,11 @@ BENCH_ARGS ?=
 bench: build
 	@/usr/bin/python3 $(REPO)/scripts/bench.py --bench $(WS)/devel/lib/cloth_sim/cloth_bench \
 	  --out $(REPO)/.build/bench_results.json $(BENCH_ARGS)
+
+ACCURACY_ARGS ?=
+accuracy: build
+	@/usr/bin/python3 $(REPO)/scripts/accuracy.py --bench $(WS)/devel/lib/cloth_sim/cloth_bench --repo $(REPO) \
+	  $(ACCURACY_ARGS)
 
 pictures: demo
 	@$(MAKE) --no-print-directory deps DEB_PACKAGES="$(PICTURE_PACKAGES)"
