@@ -163,7 +163,17 @@ std::map<std::string, Setter> makeSetters() {
       throw WrongType{"one of " + integratorNameList()};
     }
   };
-  s["substeps"] = [](const YAML::Node& n, SceneOptions& o) { o.substeps = readInt(n); };
+  s["substeps"] = [](const YAML::Node& n, SceneOptions& o) {
+    if (n.IsScalar() && n.Scalar() == kAutoSubstepsName) {
+      o.substeps = SceneOptions::kAutoSubsteps;
+      return;
+    }
+    o.substeps = readInt(n);
+    // 0 is how `auto` is stored; written as a number it is a mistake, not a request for auto.
+    if (o.substeps == SceneOptions::kAutoSubsteps) throw WrongType{std::string("'") + kAutoSubstepsName + "' or an integer in [1, " +
+                                                               std::to_string(OptionLimits::kMaxSubsteps) + "]"};
+  };
+  s["guard_retries"] = [](const YAML::Node& n, SceneOptions& o) { o.guard_retries = readBool(n); };
   s["solver_tolerance"] = [](const YAML::Node& n, SceneOptions& o) { o.solver.tolerance = readDouble(n); };
   s["threads"] = [](const YAML::Node& n, SceneOptions& o) { o.threads = readInt(n); };
   s["solver_max_iterations"] = [](const YAML::Node& n, SceneOptions& o) { o.solver.max_iterations = readInt(n); };
