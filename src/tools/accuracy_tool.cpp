@@ -359,6 +359,10 @@ int frameCount(const core::SceneOptions& scene, double seconds) {
 
 std::string gridText(int rows, int cols) { return std::to_string(rows) + "x" + std::to_string(cols); }
 
+std::string substepsText(const core::SceneOptions& scene) {
+  return scene.autoSubsteps() ? std::string(core::kAutoSubstepsName) : std::to_string(scene.substeps);
+}
+
 /// A percentage on stderr: rewritten in place on a terminal, one line per ten percent in a log.
 class Progress {
  public:
@@ -425,7 +429,7 @@ SpanRun simulateSpan(const core::SceneOptions& scene, int frames, bool record, b
     if (run.non_finite || !core::isFiniteAndBounded(sim.state(), core::Simulation::kDivergenceBound_m)) {
       reason << "not finite or beyond " << core::Simulation::kDivergenceBound_m << " m";
     } else if (!report.stable) {
-      reason << "rolled back";
+      reason << "rolled back (" << report.rejection << ")";
     } else if (fixed_substeps && report.recomputed) {
       reason << "recomputed by the guard with " << report.substeps_used << " substeps";
     } else if (report.max_strain > kDivergedStrain) {
@@ -533,8 +537,8 @@ std::vector<Setting> sweepSettings(const ToolOptions& options, const core::Scene
     }
     core::SceneOptions s = scene;
     s.integrator = kind;
-    if (tryOverride("substeps", "auto", &s)) {
-      settings.push_back({kind, "auto", s, false, kProgressAutoSubsteps * evaluations});
+    if (tryOverride("substeps", core::kAutoSubstepsName, &s)) {
+      settings.push_back({kind, core::kAutoSubstepsName, s, false, kProgressAutoSubsteps * evaluations});
     } else {
       auto_known = false;
     }
@@ -637,7 +641,7 @@ void printTable(std::ostream& out, const std::vector<SettingResult>& results) {
       << std::setw(11) << "max strain" << "  pareto  stability\n";
   for (const SettingResult& r : results) {
     std::string substeps = r.substeps_label;
-    if (r.substeps_label == "auto") substeps += "(" + formatNumber(r.mean_substeps, 2) + ")";
+    if (r.substeps_label == core::kAutoSubstepsName) substeps += "(" + formatNumber(r.mean_substeps, 2) + ")";
     out << std::left << std::setw(17) << core::integratorName(r.integrator) << std::right << std::setw(9) << substeps
         << std::setw(12) << formatNumber(r.cost_ms_per_s) << std::setw(10)
         << formatNumber(kRealTimeCost_ms_per_s / r.cost_ms_per_s) << std::setw(11)
@@ -1061,7 +1065,7 @@ int runTerms(const ToolOptions& options, const core::SceneOptions& scene) {
   SpanRun baseline;
   const double baseline_ms = msPerFrame(scene, frames, options.min_timing_s, &baseline);
   std::cout << "terms: scene " << scene.name << " " << gridText(scene.rows, scene.cols) << ", "
-            << core::integratorName(scene.integrator) << " x " << scene.substeps << ", " << frames
+            << core::integratorName(scene.integrator) << " x " << substepsText(scene) << ", " << frames
             << " frames: " << formatNumber(baseline_ms) << " ms CPU per frame with every term\n";
   std::cout << std::left << std::setw(20) << "switched off" << std::right << std::setw(12) << "ms/frame" << std::setw(12)
             << "saves ms" << std::setw(16) << "max change m" << "  used\n";
