@@ -100,7 +100,8 @@ def plot_stability(csv_path, png_path):
                 points.sort(key=lambda r: float(r["omega_max_rad_per_s"]))
                 omegas = [float(r["omega_max_rad_per_s"]) for r in points]
                 measured = [float(r["h_measured_s"]) for r in points]
-                theory = [float(r["h_theory_s"]) for r in points]
+                # A theory capped at the largest step tried (implicit Euler) is no limit: not drawn.
+                theory = [0.0 if r["theory_capped"] == "1" else float(r["h_theory_s"]) for r in points]
                 shown = [(w, h) for w, h in zip(omegas, measured) if h > 0]
                 ax.scatter([w for w, _ in shown], [h for _, h in shown], marker=marker, color=color, s=22,
                            facecolors=color if sweep == "stiffness" else "none", zorder=3,

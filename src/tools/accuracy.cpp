@@ -163,6 +163,12 @@ Reference convergeReference(const std::function<RefinementRun(int substeps)>& ru
       break;
     }
   }
+  // Stopped by the budget or the substep limit after a single halving that already changed less than the
+  // tolerance: converged, only without a second halving to show the order.
+  if (!reference.converged && !changes.empty() && changes.back() < limits.tolerance_m) {
+    reference.converged = true;
+    reference.stopped_because = "converged (one halving only: " + reference.stopped_because + ")";
+  }
   // The changes of a converging sequence shrink geometrically by r per halving; what is left of the error after
   // the last one is then the rest of that series, latest / (r - 1). Without a trustworthy ratio, the latest change
   // itself is the estimate.

@@ -495,7 +495,7 @@ void printReference(std::ostream& out, const Reference& reference, double tolera
     }
     out << "  (" << formatNumber(step.cpu_s) << " s CPU)\n";
   }
-  out << prefix << "  => " << (reference.converged ? "converged" : "NOT converged (" + reference.stopped_because + ")")
+  out << prefix << "  => " << (reference.converged ? reference.stopped_because : "NOT converged (" + reference.stopped_because + ")")
       << "; kept " << reference.substeps << " substeps, estimated error " << formatNumber(reference.estimated_error_m)
       << " m RMS\n";
 }
@@ -768,7 +768,7 @@ int runAccuracy(const ToolOptions& options, const core::SceneOptions& scene) {
       {"frames", std::to_string(frames)},
       {"frame_rate_hz", formatNumber(scene.frame_rate_hz, 6)},
       {"reference_substeps", std::to_string(reference.substeps)},
-      {"reference_converged", reference.converged ? "yes" : "no (" + reference.stopped_because + ")"},
+      {"reference_converged", reference.converged ? reference.stopped_because : "no (" + reference.stopped_because + ")"},
       {"reference_estimated_error_m", formatNumber(reference.estimated_error_m)},
       {"max_error_m", formatNumber(options.max_error_m)}};
   for (const RefinementStep& step : reference.steps) {

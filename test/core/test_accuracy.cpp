@@ -105,6 +105,18 @@ TEST(Accuracy, AReferenceThatCannotConvergeSaysSoAndKeepsTheFinestRun) {
   EXPECT_EQ(by_budget.stopped_because, "CPU budget spent");
 }
 
+TEST(Accuracy, OneHalvingBelowTheToleranceIsConvergedWhenTheBudgetAllowsNoSecond) {
+  ReferenceLimits limits;
+  limits.first_substeps = 64;
+  limits.tolerance_m = 1e-6;
+  limits.cpu_budget_s = 3.5;  // two runs of 1 s; the third would overrun
+  const Reference reference = convergeReference([](int s) { return synthetic(s, 4); }, limits);
+  ASSERT_EQ(reference.steps.size(), 2u);
+  EXPECT_TRUE(reference.converged) << reference.stopped_because;
+  EXPECT_EQ(reference.stopped_because, "converged (one halving only: CPU budget spent)");
+  EXPECT_EQ(reference.substeps, 128);
+}
+
 TEST(Accuracy, TrajectoryErrorIsTheRmsAndMaxOverEveryFrameAndParticle) {
   Eigen::Matrix3Xd zero = Eigen::Matrix3Xd::Zero(3, 2);
   Eigen::Matrix3Xd moved = zero;
