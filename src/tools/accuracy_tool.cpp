@@ -1070,7 +1070,11 @@ int runTerms(const ToolOptions& options, const core::SceneOptions& scene) {
   std::cout << std::left << std::setw(20) << "switched off" << std::right << std::setw(12) << "ms/frame" << std::setw(12)
             << "saves ms" << std::setw(16) << "max change m" << "  used\n";
   std::ostringstream csv;
-  csv << std::setprecision(6) << "scene,term,ms_per_frame_all,ms_per_frame_without,max_change_m,rms_change_m,used\n";
+  csv << std::setprecision(6)
+      << "scene,term,ms_per_frame_all,ms_per_frame_without,max_change_m,rms_change_m,used,frames_run,stopped\n";
+  if (baseline.diverged) {
+    std::cout << "note: the scene as shipped stopped at " << baseline.stopped << "\n";
+  }
   for (const Term& term : termsOf(scene)) {
     core::SceneOptions without = scene;
     term.switch_off(&without);
@@ -1081,9 +1085,10 @@ int runTerms(const ToolOptions& options, const core::SceneOptions& scene) {
     const bool used = !(change.max_m < kUnusedTermChange_m) || run.frames_run != baseline.frames_run;
     std::cout << std::left << std::setw(20) << term.name << std::right << std::setw(12) << formatNumber(ms)
               << std::setw(12) << formatNumber(baseline_ms - ms) << std::setw(16) << formatNumber(change.max_m)
-              << "  " << (used ? "yes" : "NO: switching it off changes nothing") << "\n";
+              << "  " << (used ? "yes" : "NO: switching it off changes nothing")
+              << (run.diverged ? " (without it: " + run.stopped + ")" : "") << "\n";
     csv << scene.name << "," << term.name << "," << baseline_ms << "," << ms << "," << change.max_m << ","
-        << change.rms_m << "," << (used ? 1 : 0) << "\n";
+        << change.rms_m << "," << (used ? 1 : 0) << "," << run.frames_run << "," << csvField(run.stopped) << "\n";
   }
   if (!options.csv_path.empty()) {
     std::ofstream out(options.csv_path);
