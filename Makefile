@@ -13,6 +13,10 @@
 #                10 kHz and ~grasp at 1 kHz for 30 s (scripts/load.py): rates sent, received and dropped,
 #                ~state and ~mesh rates, frame period percentiles, memory growth (make load
 #                LOAD_ARGS="--seconds 5 --rows 20 --cols 20")
+#   make accuracy  build, then measure cost against error of every integrator and substep count on hanging, flag
+#                and ball at 20-80 per side, stability maps and each scene's terms (scripts/accuracy.py, about
+#                25 minutes): writes doc/ACCURACY.md and doc/images/accuracy_*.png, raw outputs in .build/accuracy
+#                (make accuracy ACCURACY_ARGS=--reuse rewrites the page from them without running again)
 #   make pictures  record every scene (or SCENES="flag ball") and render it in rviz under Xvfb into
 #                doc/images/rviz_<scene>.png, plus the demo's picture as doc/images/demo_drape.png
 #   make clean   remove the private workspace and the demo outputs
@@ -23,7 +27,7 @@
 SHELL := /bin/bash
 .SHELLFLAGS := -eu -o pipefail -c
 .DEFAULT_GOAL := build
-.PHONY: deps build test demo bench load pictures clean help
+.PHONY: deps build test demo bench accuracy load pictures clean help
 
 # Debian 12's own ROS 1 packages (no /opt/ros); this is the one list of what the project needs.
 DEB_PACKAGES := build-essential cmake pkg-config \
@@ -135,6 +139,11 @@ bench: build
 LOAD_ARGS ?=
 load: build
 	@bash -c 'source $(WS)/devel/setup.bash && exec /usr/bin/python3 $(REPO)/scripts/load.py $(LOAD_ARGS)'
+
+ACCURACY_ARGS ?=
+accuracy: build
+	@/usr/bin/python3 $(REPO)/scripts/accuracy.py --bench $(WS)/devel/lib/cloth_sim/cloth_bench --repo $(REPO) \
+	  $(ACCURACY_ARGS)
 
 pictures: demo
 	@$(MAKE) --no-print-directory deps DEB_PACKAGES="$(PICTURE_PACKAGES)"

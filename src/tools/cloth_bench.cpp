@@ -12,7 +12,9 @@
 #include "cloth_sim/core/state.h"
 #include "cloth_sim/io/scene_file.h"
 
+#include "accuracy_tool.h"
 #include "bench_stats.h"
+#include "scene_override.h"
 #ifdef CLOTH_SIM_HAVE_BULLET
 #include "bullet_cloth.h"
 #endif
@@ -96,18 +98,18 @@ Times a cloth scene and prints one JSON line on stdout.
                          to 15 times the substeps (not used with --bullet)
   --help                 this text
 
+Other modes (each with its own --help): --accuracy (speed against accuracy of every integrator and substep count
+on a scene, with a recommendation), --stability-map (largest stable step of each integrator against stiffness and
+mass, beside theory), --spatial (error of a grid against a finer grid of the same cloth), --terms (cost and effect
+of each force and collider term of a scene).
+
 Strain, finiteness and rollbacks are checked on every simulated frame, warm-up included (Bullet's run checks
 all its frames too); only the timings leave the warm-up out.
 )";
 
 // ---- command line --------------------------------------------------------------------------------------------------
 
-/// One scene key to overlay, from --set or from a flag that stands for one.
-struct SceneOverride {
-  std::string flag;  ///< what the user typed it as ("--set", "--rows"), for error messages
-  std::string key;
-  std::string value;
-};
+using cloth_sim::bench::SceneOverride;
 
 /// Everything the command line says, parsed once.
 struct BenchOptions {
@@ -243,19 +245,6 @@ void parseCommandLine(int argc, char** argv, BenchOptions* options, std::vector<
 
 // ---- scene ---------------------------------------------------------------------------------------------------------
 
-/// Overlays one KEY=VALUE exactly as the node overlays a parameter: VALUE is YAML, so "20000", "[0, 1, 0]" and
-/// "implicit_euler" are a number, a list and a string as they would be in a scene file.
-void applyOverride(const SceneOverride& entry, core::SceneOptions* scene, std::vector<std::string>* errors) {
-  YAML::Node map(YAML::NodeType::Map);
-  try {
-    map[entry.key] = YAML::Load(entry.value);
-  } catch (const YAML::Exception& e) {
-    errors->push_back(entry.flag + " " + entry.key + "=" + entry.value + ": not valid YAML: " + e.what());
-    return;
-  }
-  core::applySceneYaml(map, entry.flag, scene, errors);
-}
-
 /// Lays the cloth flat at the height of its top edge, the two top corners pinned, so it swings down (the same
 /// start as bullet_cloth.h's dynamic patch: top-left corner at (-width / 2, 0, top edge height)).
 void makeDynamic(core::SceneOptions* scene) {
@@ -270,7 +259,7 @@ void makeDynamic(core::SceneOptions* scene) {
 /// problem in *errors.
 bool buildScene(const BenchOptions& options, core::SceneOptions* scene, std::vector<std::string>* errors) {
   if (!core::loadSceneFile(core::resolveScenePath(options.scene, options.scenes_dir), scene, errors)) return false;
-  for (const SceneOverride& entry : options.overrides) applyOverride(entry, scene, errors);
+  for (const SceneOverride& entry : options.overrides) cloth_sim::bench::applyOverride(entry, scene, errors);
   if (!errors->empty()) return false;
   if (options.dynamic) makeDynamic(scene);
   for (const std::string& problem : core::validateSceneOptions(*scene)) errors->push_back(problem);
@@ -532,6 +521,10 @@ std::string describeRun(const BenchOptions& options, const core::SceneOptions& s
 }  // namespace
 
 int main(int argc, char** argv) {
+  // --accuracy, --stability-map, --spatial and --terms are modes of their own, with their own flags.
+  if (cloth_sim::bench::isAccuracyToolCommand(argc, argv)) {
+    return cloth_sim::bench::runAccuracyTool(argc, argv, CLOTH_SIM_SCENES_DIR);
+  }
   BenchOptions options;
   std::vector<std::string> errors;
   parseCommandLine(argc, argv, &options, &errors);

@@ -1,0 +1,213 @@
+// The measuring side of `cloth_bench --accuracy` (src/tools/accuracy.h): reference convergence, the error
+// metric, the Pareto front, the stability theory; and one run of the tool itself on a tiny scene.
+#include "accuracy.h"
+
+#include "cloth_sim/core/simulation.h"
+
+#include "scene_test_util.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+namespace cloth_sim::bench {
+namespace {
+
+namespace core = cloth_sim::core;
+
+/// A small hanging cloth: smooth (no contacts), so rk4 converges at its full order.
+core::SceneOptions smallHangingCloth() {
+  core::SceneOptions options = core::test::loadBuiltinScene("hanging");
+  options.rows = 6;
+  options.cols = 6;
+  options.integrator = core::IntegratorKind::kRK4;
+  return options;
+}
+
+constexpr int kSmallClothFrames = 10;
+
+Trajectory runFrames(core::SceneOptions options, int substeps) {
+  options.substeps = substeps;
+  core::Simulation sim(options);
+  Trajectory trajectory;
+  for (int f = 0; f < kSmallClothFrames; ++f) {
+    const core::FrameReport report = sim.advanceFrame();
+    EXPECT_TRUE(report.stable && !report.recomputed) << "substeps " << substeps << ": " << report.reason;
+    trajectory.push_back(sim.state().positions_m);
+  }
+  return trajectory;
+}
+
+TEST(Accuracy, Rk4ErrorAgainstTheConvergedReferenceShrinksSixteenfoldWhenTheStepHalves) {
+  const core::SceneOptions options = smallHangingCloth();
+  ReferenceLimits limits;
+  limits.first_substeps = 256;
+  limits.frame_s = options.frameDuration_s();
+  const Reference reference =
+      convergeReference([&](int substeps) { return RefinementRun{runFrames(options, substeps), false, 0.0}; }, limits);
+  ASSERT_TRUE(reference.converged) << reference.stopped_because;
+  EXPECT_LT(reference.estimated_error_m, limits.tolerance_m);
+
+  const double coarse_m = compareTrajectories(runFrames(options, 8), reference.trajectory).max_m;
+  const double fine_m = compareTrajectories(runFrames(options, 16), reference.trajectory).max_m;
+  // The reference is within 1e-9 m: a few per cent of the finer error at most.
+  ASSERT_GT(fine_m, 20 * limits.tolerance_m) << "the errors must stand well above the reference's own";
+  const double ratio = coarse_m / fine_m;
+  EXPECT_GT(ratio, 12.0) << coarse_m << " m at 8 substeps, " << fine_m << " m at 16";
+  EXPECT_LT(ratio, 21.0) << coarse_m << " m at 8 substeps, " << fine_m << " m at 16";
+}
+
+/// A synthetic run whose one particle ends at 1 + C h^order: the changes between halvings are known exactly.
+RefinementRun synthetic(int substeps, int order, double diverged_below = 0) {
+  constexpr double kErrorConstant_m = 1.0;
+  Eigen::Matrix3Xd x = Eigen::Matrix3Xd::Zero(3, 1);
+  x(0, 0) = 1.0 + kErrorConstant_m * std::pow(1.0 / substeps, order);
+  return RefinementRun{Trajectory{x}, substeps < diverged_below, 1.0};
+}
+
+TEST(Accuracy, ReferenceHalvesTheStepUntilTheChangeIsBelowTheToleranceAndShowsTheOrder) {
+  ReferenceLimits limits;
+  limits.first_substeps = 4;
+  limits.tolerance_m = 1e-6;
+  const Reference reference = convergeReference([](int s) { return synthetic(s, 4, 8); }, limits);
+  ASSERT_TRUE(reference.converged) << reference.stopped_because;
+  // 4 diverged; 8 first; changes at 16, 32, 64 ...: the first below 1e-6 is 64 (1/32^4 - 1/64^4 = 9e-7).
+  ASSERT_GE(reference.steps.size(), 4u);
+  EXPECT_TRUE(reference.steps[0].diverged);
+  EXPECT_FALSE(reference.steps[1].final_rms_change_m.has_value());
+  EXPECT_EQ(reference.substeps, 64);
+  const RefinementStep& last = reference.steps.back();
+  const RefinementStep& before = reference.steps[reference.steps.size() - 2];
+  EXPECT_NEAR(*observedOrder(*before.final_rms_change_m, *last.final_rms_change_m), 4.0, 1e-9);
+  // What is left after the last halving is the geometric rest of the series: 1/64^4 exactly.
+  EXPECT_NEAR(reference.estimated_error_m, std::pow(1.0 / 64, 4), 1e-12);
+}
+
+TEST(Accuracy, AReferenceThatCannotConvergeSaysSoAndKeepsTheFinestRun) {
+  ReferenceLimits limits;
+  limits.first_substeps = 16;
+  limits.max_substeps = 64;
+  limits.tolerance_m = 1e-12;
+  const Reference by_substeps = convergeReference([](int s) { return synthetic(s, 1); }, limits);
+  EXPECT_FALSE(by_substeps.converged);
+  EXPECT_EQ(by_substeps.substeps, 64);
+  EXPECT_EQ(by_substeps.stopped_because, "reached the substep limit");
+  EXPECT_GT(by_substeps.estimated_error_m, limits.tolerance_m);
+
+  limits.max_substeps = 4096;
+  limits.cpu_budget_s = 3.5;  // each synthetic run "costs" 1 s: two runs, then a third (2 s expected) would overrun
+  const Reference by_budget = convergeReference([](int s) { return synthetic(s, 1); }, limits);
+  EXPECT_FALSE(by_budget.converged);
+  EXPECT_EQ(by_budget.steps.size(), 2u);
+  EXPECT_EQ(by_budget.stopped_because, "CPU budget spent");
+}
+
+TEST(Accuracy, OneHalvingBelowTheToleranceIsConvergedWhenTheBudgetAllowsNoSecond) {
+  ReferenceLimits limits;
+  limits.first_substeps = 64;
+  limits.tolerance_m = 1e-6;
+  limits.cpu_budget_s = 3.5;  // two runs of 1 s; the third would overrun
+  const Reference reference = convergeReference([](int s) { return synthetic(s, 4); }, limits);
+  ASSERT_EQ(reference.steps.size(), 2u);
+  EXPECT_TRUE(reference.converged) << reference.stopped_because;
+  EXPECT_EQ(reference.stopped_because, "converged (one halving only: CPU budget spent)");
+  EXPECT_EQ(reference.substeps, 128);
+}
+
+TEST(Accuracy, TrajectoryErrorIsTheRmsAndMaxOverEveryFrameAndParticle) {
+  Eigen::Matrix3Xd zero = Eigen::Matrix3Xd::Zero(3, 2);
+  Eigen::Matrix3Xd moved = zero;
+  moved(0, 1) = 3.0;  // frame 2, particle 1: 3 m off; everything else exact
+  const TrajectoryError error = compareTrajectories({zero, moved, zero}, {zero, zero});
+  EXPECT_EQ(error.frames, 2);
+  EXPECT_DOUBLE_EQ(error.max_m, 3.0);
+  EXPECT_DOUBLE_EQ(error.rms_m, std::sqrt(9.0 / 4.0));
+
+  Eigen::Matrix3Xd broken = zero;
+  broken(2, 0) = std::nan("");
+  EXPECT_TRUE(std::isnan(compareTrajectories({broken}, {zero}).max_m)) << "a NaN must not read as a small error";
+}
+
+TEST(Accuracy, ACoarseGridIsComparedAtTheParticlesItSharesWithAFinerOne) {
+  EXPECT_EQ(nestedParticleMap(3, 3, 5, 5), (std::vector<int>{0, 2, 4, 10, 12, 14, 20, 22, 24}));
+  EXPECT_EQ(nestedParticleMap(2, 3, 3, 9), (std::vector<int>{0, 4, 8, 18, 22, 26}));
+  EXPECT_TRUE(nestedParticleMap(20, 20, 40, 40).empty()) << "19 cells do not divide 39";
+  EXPECT_EQ(nestedParticleMap(20, 20, 77, 77).size(), 400u);
+
+  // The shared particles of two resampled grids start at the same points of the cloth.
+  core::SceneOptions coarse = smallHangingCloth(), fine = smallHangingCloth();
+  fine.rows = fine.cols = 11;
+  core::Simulation coarse_sim(coarse), fine_sim(fine);
+  const std::vector<int> map = nestedParticleMap(coarse.rows, coarse.cols, fine.rows, fine.cols);
+  const TrajectoryError start = compareTrajectories({coarse_sim.state().positions_m}, {fine_sim.state().positions_m}, map);
+  EXPECT_LT(start.max_m, 1e-12);
+}
+
+TEST(Accuracy, TheParetoFrontMarksExactlyTheNonDominatedPoints) {
+  const std::vector<CostError> points = {
+      {1.0, 10.0, true},   // 0: cheapest
+      {2.0, 5.0, true},    // 1: front
+      {3.0, 5.0, true},    // 2: dominated by 1 (same error, dearer)
+      {4.0, 1.0, true},    // 3: front
+      {5.0, 2.0, true},    // 4: dominated by 3
+      {0.5, 0.1, false},   // 5: diverged: never on the front, dominates nothing
+      {8.0, 0.5, true},    // 6: front (most accurate)
+      {2.0, 5.0, true},    // 7: equal to 1: neither dominates the other
+  };
+  EXPECT_EQ(paretoFront(points), (std::vector<bool>{true, true, false, true, false, false, true, true}));
+  EXPECT_EQ(cheapestWithin(points, 2.0), std::optional<std::size_t>(3));
+  EXPECT_EQ(cheapestWithin(points, 0.01), std::nullopt);
+  EXPECT_EQ(mostAccurateWithin(points, 4.5), std::optional<std::size_t>(3));
+  EXPECT_EQ(mostAccurateWithin(points, 0.9), std::nullopt);
+}
+
+TEST(Accuracy, SingleModeTheoryGivesTheClosedFormStepLimits) {
+  constexpr double kOmega = 100.0;
+  using core::IntegratorKind;
+  EXPECT_NEAR(theoreticalStableStep(IntegratorKind::kSymplecticEuler, kOmega, 0.0) * kOmega, 2.0, 2e-3);
+  EXPECT_NEAR(theoreticalStableStep(IntegratorKind::kRK4, kOmega, 0.0) * kOmega, 2.0 * std::sqrt(2.0), 3e-3);
+  EXPECT_EQ(theoreticalStableStep(IntegratorKind::kForwardEuler, kOmega, 0.0), 0.0);
+  EXPECT_EQ(theoreticalStableStep(IntegratorKind::kMidpoint, kOmega, 0.0), 0.0);
+  EXPECT_GE(theoreticalStableStep(IntegratorKind::kImplicitEuler, kOmega, 0.0), theoreticalStepCap_s(kOmega));
+  // Damped forward Euler: |1 + h lambda|^2 = 1 - h c + h^2 omega^2 <= 1 up to h = c / omega^2 (underdamped).
+  constexpr double kDampingRate = 10.0;
+  EXPECT_NEAR(theoreticalStableStep(IntegratorKind::kForwardEuler, kOmega, kDampingRate),
+              kDampingRate / (kOmega * kOmega), 1e-3 * kDampingRate / (kOmega * kOmega));
+  // Symplectic Euler with damping (doc/PHYSICS.md): h^2 omega^2 < 4 - 2 h c.
+  const double h = theoreticalStableStep(IntegratorKind::kSymplecticEuler, kOmega, kDampingRate);
+  EXPECT_NEAR(h * h * kOmega * kOmega + 2.0 * h * kDampingRate, 4.0, 1e-2);
+}
+
+TEST(Accuracy, LargestStableStepFindsTheEdgeOfAStableInterval) {
+  constexpr double kEdge = 0.37;
+  const double found = largestStableStep([](double h) { return h <= kEdge; }, 1e-3, 10.0);
+  EXPECT_LE(found, kEdge);
+  EXPECT_GT(found, kEdge * (1.0 - 2e-3));
+  EXPECT_EQ(largestStableStep([](double) { return false; }, 1e-3, 10.0), 0.0);
+  EXPECT_EQ(largestStableStep([](double) { return true; }, 1e-3, 10.0), 10.0);
+}
+
+TEST(ClothBenchAccuracy, PrintsTheReferenceEvidenceATableAndARecommendationOnATinyScene) {
+  const std::string command = std::string(CLOTH_BENCH_EXECUTABLE) +
+                              " --accuracy --scene hanging --set rows=4 --set cols=4 --seconds 0.1 --min-timing 0"
+                              " --integrators symplectic_euler,rk4 --substeps-list 4,16 2>/dev/null";
+  FILE* pipe = popen(command.c_str(), "r");
+  ASSERT_NE(pipe, nullptr) << command;
+  std::string output;
+  char buffer[4096];
+  while (std::fgets(buffer, sizeof(buffer), pipe) != nullptr) output += buffer;
+  const int status = pclose(pipe);
+  EXPECT_EQ(status, 0) << command << "\n" << output;
+  EXPECT_NE(output.find("reference: rk4"), std::string::npos) << output;
+  EXPECT_NE(output.find("converged"), std::string::npos) << output;
+  EXPECT_NE(output.find("rk4                     16"), std::string::npos) << output;
+  EXPECT_NE(output.find("recommendation (cheapest with max error <= 0.001 m)"), std::string::npos) << output;
+  EXPECT_NE(output.find("_integrator:="), std::string::npos) << output;
+  EXPECT_NE(output.find("substeps: "), std::string::npos) << output;
+}
+
+}  // namespace
+}  // namespace cloth_sim::bench
