@@ -17,6 +17,11 @@ constexpr int kCheckerSquares = 8;
 /// Peak speed of a pin carried over pin_travel_time, relative to the mean (the smooth start and stop of
 /// the carrying motion peak at pi / 2; 2 leaves room).
 constexpr double kPinTravelPeakSpeedFactor = 2.0;
+/// Energy a frame may gain from rounding alone: the kinetic energy of the whole cloth at this speed (m/s),
+/// plus this fraction of the energy's magnitude (gravity's potential is measured from z = 0). Without it
+/// a cloth at rest with gravity off has no allowance at all and 1e-27 J of rounding is "gained".
+constexpr double kNegligibleSpeed_m_per_s = 1e-3;
+constexpr double kRoundingEnergyFraction = 1e-9;
 
 bool sameGrid(const SceneOptions& a, const SceneOptions& b) {
   return a.rows == b.rows && a.cols == b.cols && a.width_m == b.width_m && a.height_m == b.height_m &&
@@ -150,7 +155,9 @@ FrameEnvelope Simulation::frameEnvelope() const {
                                           0.5 * cell_area_m2 * relative_speed_m_per_s * relative_speed_m_per_s);
   }
   envelope.energy_allowance_J = StabilityGuard::kEnergySlackFraction * scene_energy_J +
-                                options_.frameDuration_s() * wind_force_N * (wind_speed_m_per_s + cloth_speed_m_per_s);
+                                options_.frameDuration_s() * wind_force_N * (wind_speed_m_per_s + cloth_speed_m_per_s) +
+                                0.5 * total_mass_kg * kNegligibleSpeed_m_per_s * kNegligibleSpeed_m_per_s +
+                                kRoundingEnergyFraction * std::abs(envelope.energy_before_J);
   // The largest force one structural spring can be made to carry: the whole weight, every hand, the wind.
   double largest_force_N = total_mass_kg * gravity_m_per_s2 + wind_force_N;
   for (const Grasp& grasp : inputs_.grasps) {

@@ -105,6 +105,21 @@ TEST(AutoSubsteps, AFixedStepPastTheLimitIsReportedAndCaughtNotPublished) {
   EXPECT_GT(rolled_back + (first.stable ? 0 : 1), 0) << "the guard must notice the unstable step";
 }
 
+TEST(AutoSubsteps, AWeightlessClothAtRestIsNotRejectedForRoundingGains) {
+  // No gravity, no inputs: the energy budget is the rounding allowance alone.
+  for (IntegratorKind kind : allIntegratorKinds()) {
+    SceneOptions o;
+    o.gravity_m_per_s2.setZero();
+    o.integrator = kind;
+    Simulation sim(o);
+    for (int frame = 0; frame < 50; ++frame) {
+      const FrameReport report = sim.advanceFrame();
+      ASSERT_TRUE(report.stable) << integratorName(kind) << ": " << report.reason;
+      ASSERT_FALSE(report.recomputed) << integratorName(kind) << ": " << report.reason;
+    }
+  }
+}
+
 TEST(Recovery, AfterThreeRollbacksItSwitchesToImplicitEulerAndMovesOn) {
   SceneOptions o;
   o.integrator = IntegratorKind::kRK4;
