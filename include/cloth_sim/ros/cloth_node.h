@@ -83,6 +83,11 @@ class ClothNode {
   bool onStep(cloth_sim::Step::Request& request, cloth_sim::Step::Response& response);
   bool onLoadScene(cloth_sim::LoadScene::Request& request, cloth_sim::LoadScene::Response& response);
   void onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t level);
+  /// Why a reconfigure request cannot be taken as it stands (a non-finite number, a wind over the limit,
+  /// named), or "" (ranges are then checked by the core's validation in retune).
+  std::string invalidReconfigureValue(const cloth_sim::ClothConfig& config) const;
+  /// Publishes OptionLimits as the reconfigure ranges (the .cfg leaves them open so nothing is clamped).
+  void publishReconfigureRanges();
   /// The options in force as a reconfigure config.
   void fillConfig(cloth_sim::ClothConfig* config) const;
   void pushConfig();
