@@ -61,9 +61,12 @@ class ReconfigureRefusals(unittest.TestCase):
                                                                                             before[name]))
         self.wait_for(lambda: any("reconfigure refused: " + field in m for m in self.logs[log_start:]),
                       "a warning naming " + field)
+        # Alive: FRAMES_ALIVE more states arrive (the last of them certainly published after the answer)
+        # and the cloth advances.
         with self.lock:
+            received = len(self.states)
             frame = self.states[-1].frame if self.states else 0
-        self.wait_for(lambda: self.states and self.states[-1].frame >= frame + FRAMES_ALIVE,
+        self.wait_for(lambda: len(self.states) >= received + FRAMES_ALIVE and self.states[-1].frame > frame,
                       "the cloth to advance after the refusal")
         with self.lock:
             state = self.states[-1]
@@ -96,7 +99,8 @@ class ReconfigureRefusals(unittest.TestCase):
         answer = self.client.update_configuration({"substeps": 3})
         self.assertEqual(answer["substeps"], 3)
         self.wait_for(lambda: self.states and self.states[-1].substeps == 3, "substeps 3 in ~state")
-        self.client.update_configuration({"substeps": 1})
+        self.assertEqual(self.client.update_configuration({"substeps": 1})["substeps"], 1)
+        self.wait_for(lambda: self.states and self.states[-1].substeps == 1, "substeps 1 in ~state")
         ranges = {d["name"]: (d["min"], d["max"]) for d in self.client.get_parameter_descriptions(timeout=TIMEOUT_S)}
         self.assertEqual(ranges["structural_stiffness"], (0.0, 1e7))
         self.assertEqual(ranges["wind_x"], (-100.0, 100.0))
