@@ -8,7 +8,6 @@
 #include <tf2_geometry_msgs/tf2_geometry_msgs.h>
 
 #include <cmath>
-#include <limits>
 #include <set>
 #include <sstream>
 
@@ -382,8 +381,7 @@ bool ClothNode::onLoadScene(cloth_sim::LoadScene::Request& request, cloth_sim::L
   try {
     simulation = buildSimulation(request.scene, false, &error);
     if (simulation) install(std::move(simulation));
-  } catch (const std::exception& e) {
-    simulation.reset();
+  } catch (const std::exception& e) {  // nothing was swapped: install throws only before its swap
     error = "scene '" + request.scene + "': " + e.what();
   }
   if (!error.empty()) {
