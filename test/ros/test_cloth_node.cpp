@@ -36,6 +36,7 @@
 #include <sys/stat.h>
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -619,13 +620,6 @@ TEST_F(NodeTest, LoadSceneOfAFilePathWorks) {
 
 namespace {
 
-/// A fresh folder for files the node is asked to load (the node runs on this machine).
-std::string scratchDir() {
-  char pattern[] = "/tmp/cloth_sim_load_scene_XXXXXX";
-  const char* dir = mkdtemp(pattern);
-  return dir ? dir : "/tmp";
-}
-
 std::string writeFile(const std::string& dir, const std::string& name, const std::string& text) {
   const std::string path = dir + "/" + name;
   std::ofstream(path, std::ios::binary) << text;
@@ -636,6 +630,23 @@ std::string writeFile(const std::string& dir, const std::string& name, const std
 
 class LoadSceneRefusal : public NodeTest {
  protected:
+  void TearDown() override {
+    for (const std::string& dir : dirs_) std::filesystem::remove_all(dir);
+  }
+
+  /// A fresh folder for files the node is asked to load (the node runs on this machine), removed after
+  /// the test.
+  std::string scratchDir() {
+    char pattern[] = "/tmp/cloth_sim_load_scene_XXXXXX";
+    const char* dir = mkdtemp(pattern);
+    if (!dir) {
+      ADD_FAILURE() << "cannot create a folder under /tmp";
+      return "/nonexistent";
+    }
+    dirs_.push_back(dir);
+    return dir;
+  }
+
   /// Asks ~load_scene for `scene`, expects a refusal whose message holds every one of `expected`, and
   /// checks that the hanging scene keeps running (10 more frames, same grid). Returns the message.
   std::string expectRefusedAndOldSceneRuns(const std::string& scene, const std::vector<std::string>& expected) {
@@ -662,6 +673,8 @@ class LoadSceneRefusal : public NodeTest {
     }
     return load.response.message;
   }
+
+  std::vector<std::string> dirs_;
 };
 
 TEST_F(LoadSceneRefusal, AnEmptyNameADirectoryAndFilesThatAreNotScenes) {
