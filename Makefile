@@ -9,6 +9,10 @@
 #   make bench   build, then time cloth_sim against Bullet's soft-body cloth at 20, 64, 128 and 256
 #                (scripts/bench.py): markdown tables on stdout, raw JSON lines in .build/bench_results.json
 #                (make bench BENCH_ARGS=--quick, or BENCH_ARGS="--sizes 20,64 --frames 20")
+#   make load    build, then flood a cloth_node (its own master, the hanging scene at 64x64) with ~wind at
+#                10 kHz and ~grasp at 1 kHz for 30 s (scripts/load.py): rates sent, received and dropped,
+#                ~state and ~mesh rates, frame period percentiles, memory growth (make load
+#                LOAD_ARGS="--seconds 5 --rows 20 --cols 20")
 #   make pictures  record every scene (or SCENES="flag ball") and render it in rviz under Xvfb into
 #                doc/images/rviz_<scene>.png, plus the demo's picture as doc/images/demo_drape.png
 #   make clean   remove the private workspace and the demo outputs
@@ -19,7 +23,7 @@
 SHELL := /bin/bash
 .SHELLFLAGS := -eu -o pipefail -c
 .DEFAULT_GOAL := build
-.PHONY: deps build test demo bench pictures clean help
+.PHONY: deps build test demo bench load pictures clean help
 
 # Debian 12's own ROS 1 packages (no /opt/ros); this is the one list of what the project needs.
 DEB_PACKAGES := build-essential cmake pkg-config \
@@ -127,6 +131,10 @@ BENCH_ARGS ?=
 bench: build
 	@/usr/bin/python3 $(REPO)/scripts/bench.py --bench $(WS)/devel/lib/cloth_sim/cloth_bench \
 	  --out $(REPO)/.build/bench_results.json $(BENCH_ARGS)
+
+LOAD_ARGS ?=
+load: build
+	@bash -c 'source $(WS)/devel/setup.bash && exec /usr/bin/python3 $(REPO)/scripts/load.py $(LOAD_ARGS)'
 
 pictures: demo
 	@$(MAKE) --no-print-directory deps DEB_PACKAGES="$(PICTURE_PACKAGES)"

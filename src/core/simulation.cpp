@@ -1,5 +1,7 @@
 #include "cloth_sim/core/simulation.h"
 
+#include "cloth_sim/core/constants.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -12,6 +14,9 @@ namespace {
 
 /// Squares of the built-in checker per side of the cloth.
 constexpr int kCheckerSquares = 8;
+/// Peak speed of a pin carried over pin_travel_time, relative to the mean (the smooth start and stop of
+/// the carrying motion peak at pi / 2; 2 leaves room).
+constexpr double kPinTravelPeakSpeedFactor = 2.0;
 
 bool sameGrid(const SceneOptions& a, const SceneOptions& b) {
   return a.rows == b.rows && a.cols == b.cols && a.width_m == b.width_m && a.height_m == b.height_m &&
@@ -55,6 +60,8 @@ void Simulation::reset() {
     if (options_.pin_travel_time_s > 0.0) inputs_.pin_travel_m.col(p) = start_m - inputs_.pin_anchors_m.col(p);
   }
   inputs_.grasps.clear();
+  memory_ = GuardMemory();
+  bound_stale_ = true;
   force_model_.refreshConstraints();
   state_.positions_m = grid_.rest_positions_m;
   state_.velocities_m_per_s.setZero(3, count);
@@ -64,13 +71,9 @@ void Simulation::reset() {
 }
 
 bool Simulation::restoreState(const ClothState& state, std::string* error) {
-  if (state.particleCount() != grid_.particleCount() || state.velocities_m_per_s.cols() != state.positions_m.cols()) {
-    *error = "state has " + std::to_string(state.particleCount()) + " particles, the scene " +
-             std::to_string(grid_.particleCount());
-    return false;
-  }
-  state_ = state;
-  return true;
+  SimulationSnapshot current = snapshot();
+  current.state = state;
+  return restore(current, error);
 }
 
 ContactStats Simulation::integrateFrame(int substeps, StepReport* steps) {
@@ -93,40 +96,187 @@ ContactStats Simulation::integrateFrame(int substeps, StepReport* steps) {
   return contacts;
 }
 
+int Simulation::firstSubsteps(double stable_step_s, std::string* warning) const {
+  if (!options_.autoSubsteps()) return options_.substeps;
+  if (options_.integrator == IntegratorKind::kImplicitEuler) return memory_.auto_scale;
+  const double needed = std::ceil(options_.frameDuration_s() / (StabilityGuard::kStepSafetyFraction * stable_step_s));
+  if (!(needed <= OptionLimits::kMaxSubsteps)) {
+    if (warning != nullptr) *warning = std::string(integratorName(options_.integrator)) + " needs more than " +
+               std::to_string(OptionLimits::kMaxSubsteps) + " substeps here: use implicit_euler";
+    return OptionLimits::kMaxSubsteps;
+  }
+  return std::min(std::max(static_cast<int>(needed), 1) * memory_.auto_scale, OptionLimits::kMaxSubsteps);
+}
+
+FrameEnvelope Simulation::frameEnvelope() const {
+  FrameEnvelope envelope;
+  envelope.energy_before_J = totalEnergy_J();
+  const EnergyReport energies_now = energies();
+  envelope.strain_before = maxStructuralStrain();
+  const double total_mass_kg = mass_kg_.sum();
+  const double gravity_m_per_s2 = options_.gravity_m_per_s2.norm();
+  // The fastest thing that can push the cloth: wind (with gusts), spheres, pins, pins travelling.
+  const double gust = 1.0 + std::abs(options_.wind.gust_amplitude);
+  const double wind_speed_m_per_s = options_.wind_enabled ? inputs_.wind_m_per_s.norm() * gust : 0.0;
+  double input_speed_m_per_s = wind_speed_m_per_s;
+  for (const SphereCollider& sphere : options_.colliders.spheres) {
+    input_speed_m_per_s = std::max(input_speed_m_per_s, sphere.velocity_m_per_s.norm() +
+                                                            kTwoPi * sphere.oscillation_amplitude_m.norm() /
+                                                                sphere.oscillation_period_s);
+  }
+  input_speed_m_per_s = std::max(input_speed_m_per_s,
+                                 kTwoPi * options_.pin_motion_amplitude_m.norm() / options_.pin_motion_period_s);
+  if (options_.pin_travel_time_s > 0.0 && inputs_.pin_travel_m.cols() > 0) {
+    input_speed_m_per_s = std::max(input_speed_m_per_s, kPinTravelPeakSpeedFactor *
+                                                            inputs_.pin_travel_m.colwise().norm().maxCoeff() /
+                                                            options_.pin_travel_time_s);
+  }
+  const double extent_m = std::hypot(options_.width_m, options_.height_m) + 2.0 * options_.pin_motion_amplitude_m.norm();
+  // The energy scale a frame is measured against: the weight over the scene's extent, the kinetic energy of
+  // its fastest input, and the motion and stretch the cloth already has.
+  const double scene_energy_J =
+      total_mass_kg * (gravity_m_per_s2 * extent_m + 0.5 * input_speed_m_per_s * input_speed_m_per_s) +
+      energies_now.kinetic_J + energies_now.elastic_J;
+  // The wind's work in a frame: at most its largest force times the fastest the cloth and air move.
+  const double cloth_speed_m_per_s = state_.velocities_m_per_s.colwise().norm().maxCoeff();
+  const double triangles = static_cast<double>(grid_.triangles.size() / 3);
+  double wind_force_N = 0.0;
+  if (options_.wind_enabled) {
+    const double relative_speed_m_per_s = wind_speed_m_per_s + cloth_speed_m_per_s;
+    const double cell_area_m2 = options_.width_m / (options_.cols - 1) * options_.height_m / (options_.rows - 1);
+    wind_force_N = triangles * (options_.wind.model == WindModel::kPaper
+                                    ? options_.wind.paper_coefficient_N_s_per_m * wind_speed_m_per_s
+                                    : 0.5 * options_.wind.air_density_kg_per_m3 * options_.wind.drag_coefficient *
+                                          0.5 * cell_area_m2 * relative_speed_m_per_s * relative_speed_m_per_s);
+  }
+  envelope.energy_allowance_J = StabilityGuard::kEnergySlackFraction * scene_energy_J +
+                                options_.frameDuration_s() * wind_force_N * (wind_speed_m_per_s + cloth_speed_m_per_s);
+  // The largest force one structural spring can be made to carry: the whole weight, every hand, the wind.
+  double largest_force_N = total_mass_kg * gravity_m_per_s2 + wind_force_N;
+  for (const Grasp& grasp : inputs_.grasps) {
+    largest_force_N += grasp.stiffness_N_per_m * (grasp.target_m - state_.positions_m.col(grasp.particle)).norm() +
+                       grasp.extra_force_N.norm();
+  }
+  const SpringOptions& structural = options_.springs[static_cast<int>(SpringKind::kStructural)];
+  const std::vector<double>& rest_m = grid_.springsOf(SpringKind::kStructural).rest_length_m;
+  const double shortest_m = rest_m.empty() ? 0.0 : *std::min_element(rest_m.begin(), rest_m.end());
+  const double spring_capacity_N_per_strain = structural.enabled ? structural.stiffness_N_per_m * shortest_m : 0.0;
+  // Pins and colliders move particles by hand: in a frame they can stretch a spring by their travel.
+  const double kinematic_strain = shortest_m > 0.0 ? input_speed_m_per_s * options_.frameDuration_s() / shortest_m : 0.0;
+  envelope.strain_allowance = spring_capacity_N_per_strain > 0.0
+                                  ? largest_force_N / spring_capacity_N_per_strain + kinematic_strain
+                                  : std::numeric_limits<double>::infinity();
+  return envelope;
+}
+
+bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps, FrameReport* report) {
+  std::string problem;
+  for (int attempt = 0; attempt < guard_.attempts(options_.guard_retries); ++attempt) {
+    report->substeps_used = guard_.substeps(first_substeps, attempt);
+    report->steps = StepReport();
+    report->contacts = integrateFrame(report->substeps_used, &report->steps);
+    report->max_strain = maxStructuralStrain();
+    problem = guard_.check(state_, totalEnergy_J(), report->max_strain, envelope);
+    // `auto` also refines a frame that first stretches the cloth past the warning (a hem caught on a
+    // table's edge): more substeps follow the impact more closely. Only at the crossing, so a cloth a
+    // hand keeps stretched pays once; the last attempt is kept as it is.
+    const bool last_attempt = attempt + 1 == guard_.attempts(options_.guard_retries);
+    if (problem.empty() && options_.autoSubsteps() && !last_attempt && report->max_strain > kStrainWarning &&
+        envelope.strain_before <= kStrainWarning) {
+      problem = "over-stretched to " + std::to_string(report->max_strain);
+    } else if (problem.empty()) {
+      return true;
+    }
+    report->rejection = problem + " with " + std::to_string(report->substeps_used) + " substeps";
+    state_ = frame_start_;
+  }
+  report->max_strain = maxStructuralStrain();
+  return false;
+}
+
+void Simulation::rememberFrame(const FrameReport& report, int first_substeps) {
+  // A solve cut off at its iteration cap is not a reason by itself: conjugate gradients started at zero
+  // never add energy, and a result the guard accepts is kept (the diagnostics show the cap was hit).
+  const bool struggled = report.substeps_used != first_substeps;
+  if (!options_.autoSubsteps() || !struggled) return;
+  // Start the next frames where this one succeeded.
+  memory_.auto_scale = std::min(memory_.auto_scale * (report.substeps_used / first_substeps), GuardMemory::kMaxScale);
+}
+
 FrameReport Simulation::advanceFrame() {
   FrameReport report;
-  frame_start_ = state_;
-  // The guard: a frame that diverges is recomputed from its start with twice the substeps, up to its
-  // number of attempts; only if that fails too is it rolled back. A too-stiff grasp or slider then
-  // costs time instead of freezing the cloth.
-  bool accepted = false;
-  for (int attempt = 0; attempt < guard_.attempts() && !accepted; ++attempt) {
-    report.substeps_used = guard_.substeps(options_.substeps, attempt);
-    report.steps = StepReport();
-    report.contacts = integrateFrame(report.substeps_used, &report.steps);
-    accepted = guard_.accepts(state_);
-    if (!accepted) state_ = frame_start_;
+  if (bound_stale_) {
+    bound_ = estimateStiffnessBound(options_, grid_, mass_kg_, inputs_);
+    bound_stale_ = false;
   }
-  report.recomputed = report.substeps_used != options_.substeps;
+  report.stable_step_s = stableStepLimit_s(options_.integrator, bound_);
+  std::string warning;
+  const int first_substeps = firstSubsteps(report.stable_step_s, &warning);
+  const double step_s = options_.frameDuration_s() / first_substeps;
+  report.stability_margin = std::isinf(report.stable_step_s) ? 0.0 : step_s / report.stable_step_s;
+  if (warning.empty() && report.stability_margin > 1.0) {
+    std::ostringstream fixed;
+    fixed << "step " << step_s << " s is " << report.stability_margin << "x the largest stable step of "
+          << integratorName(options_.integrator) << " (" << report.stable_step_s << " s): use substeps: auto";
+    warning = fixed.str();
+  }
+  frame_start_ = state_;
+  const FrameEnvelope envelope = frameEnvelope();
+  bool accepted = computeFrame(envelope, first_substeps, &report);
+  report.recomputed = accepted && report.substeps_used != first_substeps;
+  if (accepted) {
+    rememberFrame(report, first_substeps);
+    memory_.consecutive_rollbacks = 0;
+  } else if (++memory_.consecutive_rollbacks >= GuardMemory::kRollbacksBeforeRecovery) {
+    accepted = recover(envelope, &report);
+  }
   std::ostringstream reason;
   if (!accepted) {
     report.stable = false;
-    reason << "diverged in frame " << state_.frame + 1 << " (" << integratorName(options_.integrator) << ") even with "
-           << report.substeps_used << " substeps: rolled back to the previous frame";
+    reason << "frame " << state_.frame + 1 << " (" << integratorName(options_.integrator) << ") " << report.rejection
+           << ": rolled back to the previous frame";
     report.reason = reason.str();
-    report.max_strain = maxStructuralStrain();
     return report;
   }
   ++state_.frame;
-  report.max_strain = maxStructuralStrain();
-  if (report.recomputed) {
-    reason << "frame " << state_.frame << " diverged with " << options_.substeps << " substeps and was recomputed with "
-           << report.substeps_used << ": raise substeps or lower the stiffness";
+  if (!report.recovery.empty()) {
+    reason << report.recovery;
+  } else if (report.recomputed) {
+    reason << "frame " << state_.frame << " was recomputed with " << report.substeps_used << " substeps ("
+           << report.rejection << " before): raise substeps or use substeps: auto";
+  } else if (!warning.empty()) {
+    reason << warning;
   } else if (report.max_strain > kStrainWarning) {
     reason << "over-stretched: structural strain " << report.max_strain << " > " << kStrainWarning;
   }
   report.reason = reason.str();
   return report;
+}
+
+bool Simulation::recover(const FrameEnvelope& envelope, FrameReport* report) {
+  const std::string failing = integratorName(options_.integrator);
+  std::ostringstream what;
+  what << memory_.consecutive_rollbacks << " frames in a row rolled back (" << report->rejection << "): ";
+  if (options_.integrator != IntegratorKind::kImplicitEuler || !options_.autoSubsteps()) {
+    // Implicit Euler with auto substeps is stable for every stiffness the options accept; switch to it
+    // for good (the node shows the change) rather than pay for failing attempts every frame.
+    options_.integrator = IntegratorKind::kImplicitEuler;
+    options_.substeps = SceneOptions::kAutoSubsteps;
+    integrator_ = makeIntegrator(options_.integrator, options_.solver);
+    memory_ = GuardMemory();
+    if (computeFrame(envelope, firstSubsteps(std::numeric_limits<double>::infinity(), nullptr), report)) {
+      what << "switched from " << failing << " to implicit_euler with substeps auto";
+      report->recovery = what.str();
+      return true;
+    }
+  }
+  // Not even that: the state itself is beyond saving (or an input is). Start the scene again, keeping the
+  // tuning and the wind, rather than stay frozen.
+  reset();
+  what << "the scene was reset to its initial state (grasps released)";
+  report->recovery = what.str();
+  report->max_strain = maxStructuralStrain();
+  return true;
 }
 
 bool Simulation::retune(const SceneOptions& options, std::string* error) {
@@ -144,12 +294,15 @@ bool Simulation::retune(const SceneOptions& options, std::string* error) {
     integrator_ = makeIntegrator(options.integrator, options.solver);
   }
   options_ = options;
+  bound_stale_ = true;
+  memory_ = GuardMemory();
   return true;
 }
 
 void Simulation::setWindVelocity(const Eigen::Vector3d& wind_m_per_s) {
   inputs_.wind_m_per_s = wind_m_per_s;
   options_.wind_enabled = true;
+  bound_stale_ = true;
 }
 
 bool Simulation::grab(const GraspRequest& request, std::string* error) {
@@ -179,6 +332,7 @@ bool Simulation::grab(const GraspRequest& request, std::string* error) {
     grasp.target_m = request.target_m;  // dragging: the held particle stays the same
     grasp.stiffness_N_per_m = stiffness;
     grasp.extra_force_N = request.extra_force_N;
+    bound_stale_ = true;
     return true;
   }
   if (inputs_.grasps.size() >= kMaxGrasps) {
@@ -194,6 +348,7 @@ bool Simulation::grab(const GraspRequest& request, std::string* error) {
   grasp.extra_force_N = request.extra_force_N;
   // A held pin comes off its hook (paper: pins move only when grasped or driven); release() re-hooks it.
   inputs_.grasps.push_back(grasp);
+  bound_stale_ = true;
   force_model_.refreshConstraints();
   return true;
 }
@@ -204,6 +359,7 @@ bool Simulation::release(std::uint32_t id) {
   if (held == grasps.end()) return false;
   const int particle = held->particle;
   grasps.erase(held);
+  bound_stale_ = true;
   const auto pin = std::lower_bound(inputs_.pins.begin(), inputs_.pins.end(), particle);
   if (!inputs_.isGrasped(particle) && pin != inputs_.pins.end() && *pin == particle) {
     // Hang it on a hook where the hand let go: the pin's motion continues from there.
@@ -248,9 +404,22 @@ EnergyReport Simulation::energies() const {
   report.potential_J = -(options_.gravity_m_per_s2.transpose() * state_.positions_m * mass_kg_)(0);
   for (int k = 0; k < kSpringKindCount; ++k) {
     if (!options_.springs[k].enabled) continue;
-    report.potential_J += springPotentialEnergy(grid_.springs[k], options_.springs[k], state_.positions_m);
+    report.elastic_J += springPotentialEnergy(grid_.springs[k], options_.springs[k], state_.positions_m);
   }
+  report.potential_J += report.elastic_J;
   return report;
+}
+
+double Simulation::totalEnergy_J() const {
+  const EnergyReport energies = this->energies();
+  double total_J = energies.kinetic_J + energies.potential_J;
+  for (const Grasp& grasp : inputs_.grasps) {
+    // A hand is a spring to its target plus a constant force: both conservative while the hand stays.
+    const Eigen::Vector3d position_m = state_.positions_m.col(grasp.particle);
+    total_J += 0.5 * grasp.stiffness_N_per_m * (grasp.target_m - position_m).squaredNorm() -
+               grasp.extra_force_N.dot(position_m);
+  }
+  return total_J;
 }
 
 double Simulation::maxStructuralStrain() const {
@@ -268,6 +437,154 @@ Eigen::Matrix3Xf checkerColors(const Eigen::Matrix2Xd& uv) {
     colors.col(i) = ((square_u + square_v) % 2 == 0) ? light : dark;
   }
   return colors;
+}
+
+namespace {
+
+std::string vectorText(const Eigen::Vector3d& v) {
+  std::ostringstream text;
+  text << "(" << v.x() << ", " << v.y() << ", " << v.z() << ")";
+  return text.str();
+}
+
+/// Pin hooks and travels are differences of points that the guard and the options bound: a particle let go
+/// within kDivergenceBound_m less a pin motion within kMaxCoordinate_m; a rest position (origin within
+/// kMaxCoordinate_m plus the cloth's sides) less a pin position. No valid run leaves this box (m).
+constexpr double kMaxHookComponent_m =
+    Simulation::kDivergenceBound_m + OptionLimits::kMaxCoordinate_m + 2.0 * OptionLimits::kMaxClothSide_m;
+
+/// A particle this fast crosses the guard's whole box within the shortest frame the options allow: no
+/// state the guard accepts carries on from there, so a snapshot with such a speed is refused (m/s).
+constexpr double kMaxSpeed_m_per_s = 2.0 * Simulation::kDivergenceBound_m * OptionLimits::kMaxFrameRateHz;
+
+/// Empty when every column of `values` (3 x expected_columns) is finite with each component within
+/// +-bound (the guard's box); else what is wrong, naming `what`.
+std::string checkColumns(const std::string& what, const Eigen::Matrix3Xd& values, Eigen::Index expected_columns,
+                         double bound) {
+  if (values.cols() != expected_columns) {
+    return what + " has " + std::to_string(values.cols()) + " entries, expected " + std::to_string(expected_columns);
+  }
+  for (Eigen::Index i = 0; i < values.cols(); ++i) {
+    if (!values.col(i).allFinite() || values.col(i).cwiseAbs().maxCoeff() > bound) {
+      return what + "[" + std::to_string(i) + "] = " + vectorText(values.col(i)) +
+             ": each component must be finite and within +-" + std::to_string(bound);
+    }
+  }
+  return "";
+}
+
+/// Empty when the state fits a grid of `particles` particles; else the first problem.
+std::string checkState(const ClothState& state, int particles) {
+  if (std::string problem = checkColumns("state positions", state.positions_m, particles,
+                                         Simulation::kDivergenceBound_m);
+      !problem.empty()) {
+    return problem;
+  }
+  if (std::string problem = checkColumns("state velocities", state.velocities_m_per_s, particles, kMaxSpeed_m_per_s);
+      !problem.empty()) {
+    return problem;
+  }
+  if (!std::isfinite(state.time_s) || state.time_s < 0.0) {
+    return "state time " + std::to_string(state.time_s) + " s: must be finite and >= 0";
+  }
+  return "";
+}
+
+/// Empty when the inputs fit options (whose pins resolve to `pins`) on a grid of `particles`.
+std::string checkInputs(const ClothInputs& inputs, const std::vector<int>& pins, int particles) {
+  if (!inputs.wind_m_per_s.allFinite() || inputs.wind_m_per_s.norm() > OptionLimits::kMaxWindSpeed_m_per_s) {
+    return "wind " + vectorText(inputs.wind_m_per_s) + " m/s: must be finite and at most " +
+           std::to_string(OptionLimits::kMaxWindSpeed_m_per_s) + " m/s";
+  }
+  if (inputs.pins != pins) {
+    return "inputs pin " + std::to_string(inputs.pins.size()) + " particles that differ from the " +
+           std::to_string(pins.size()) + " the options' pins select";
+  }
+  const auto pin_count = static_cast<Eigen::Index>(pins.size());
+  if (std::string problem = checkColumns("pin hooks", inputs.pin_anchors_m, pin_count, kMaxHookComponent_m);
+      !problem.empty()) {
+    return problem;
+  }
+  if (std::string problem = checkColumns("pin travel", inputs.pin_travel_m, pin_count, kMaxHookComponent_m);
+      !problem.empty()) {
+    return problem;
+  }
+  if (inputs.grasps.size() > Simulation::kMaxGrasps) {
+    return std::to_string(inputs.grasps.size()) + " grasps: at most " + std::to_string(Simulation::kMaxGrasps);
+  }
+  for (std::size_t g = 0; g < inputs.grasps.size(); ++g) {
+    const Grasp& grasp = inputs.grasps[g];
+    const std::string name = "grasp " + std::to_string(grasp.id);
+    for (std::size_t other = 0; other < g; ++other) {
+      if (inputs.grasps[other].id == grasp.id) return name + " appears twice: ids must be unique";
+    }
+    if (grasp.particle < 0 || grasp.particle >= particles) {
+      return name + " holds particle " + std::to_string(grasp.particle) + ": must be in [0, " +
+             std::to_string(particles - 1) + "]";
+    }
+    if (!grasp.target_m.allFinite() || grasp.target_m.norm() > Simulation::kMaxGraspReach_m) {
+      return name + " target " + vectorText(grasp.target_m) + ": must be finite and within " +
+             std::to_string(Simulation::kMaxGraspReach_m) + " m of the origin";
+    }
+    if (!(grasp.stiffness_N_per_m >= 0.0 && grasp.stiffness_N_per_m <= OptionLimits::kMaxStiffnessN_per_m)) {
+      return name + " stiffness " + std::to_string(grasp.stiffness_N_per_m) + " N/m: must be in [0, " +
+             std::to_string(OptionLimits::kMaxStiffnessN_per_m) + "]";
+    }
+    if (!(grasp.damping_N_s_per_m >= 0.0 && grasp.damping_N_s_per_m <= OptionLimits::kMaxDampingN_s_per_m)) {
+      return name + " damping " + std::to_string(grasp.damping_N_s_per_m) + " N s/m: must be in [0, " +
+             std::to_string(OptionLimits::kMaxDampingN_s_per_m) + "]";
+    }
+    if (!grasp.extra_force_N.allFinite() || grasp.extra_force_N.norm() > Simulation::kMaxGraspForce_N) {
+      return name + " force " + vectorText(grasp.extra_force_N) + " N: must be finite and at most " +
+             std::to_string(Simulation::kMaxGraspForce_N) + " N";
+    }
+  }
+  return "";
+}
+
+}  // namespace
+
+SimulationSnapshot Simulation::snapshot() const { return SimulationSnapshot{options_, state_, inputs_, memory_}; }
+
+bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error) {
+  const SceneOptions& options = snapshot.options;
+  if (!sameGrid(options, options_)) {
+    *error = "the snapshot's grid (rows, cols, size, pose, pins or mass) differs from this scene's (" +
+             std::to_string(options_.rows) + "x" + std::to_string(options_.cols) + ")";
+    return false;
+  }
+  const std::vector<std::string> problems = validateSceneOptions(options);
+  if (!problems.empty()) {
+    *error = "snapshot options: " + problems.front();
+    return false;
+  }
+  std::string problem = checkState(snapshot.state, grid_.particleCount());
+  if (problem.empty()) problem = checkInputs(snapshot.inputs, inputs_.pins, grid_.particleCount());
+  const GuardMemory& guard = snapshot.guard;
+  if (problem.empty() && (guard.auto_scale < 1 || guard.auto_scale > GuardMemory::kMaxScale ||
+                          (guard.auto_scale & (guard.auto_scale - 1)) != 0 || guard.consecutive_rollbacks < 0 ||
+                          guard.consecutive_rollbacks >= GuardMemory::kRollbacksBeforeRecovery)) {
+    problem = "guard memory: auto scale " + std::to_string(guard.auto_scale) + " (a power of two up to " +
+              std::to_string(GuardMemory::kMaxScale) + "), rollbacks in a row " +
+              std::to_string(guard.consecutive_rollbacks) + " (below " +
+              std::to_string(GuardMemory::kRollbacksBeforeRecovery) + ")";
+  }
+  if (!problem.empty()) {
+    *error = "snapshot " + problem;
+    return false;
+  }
+  if (options.integrator != options_.integrator || options.solver.tolerance != options_.solver.tolerance ||
+      options.solver.max_iterations != options_.solver.max_iterations) {
+    integrator_ = makeIntegrator(options.integrator, options.solver);
+  }
+  options_ = options;
+  inputs_ = snapshot.inputs;
+  state_ = snapshot.state;
+  memory_ = snapshot.guard;
+  bound_stale_ = true;
+  // Which pins hang on hooks follows from the grasps just restored (as grab and release keep it).
+  force_model_.refreshConstraints();
+  return true;
 }
 
 }  // namespace cloth_sim::core

@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -199,7 +202,17 @@ std::map<std::string, Setter> makeSetters() {
       throw WrongType{"one of " + integratorNameList()};
     }
   };
-  s["substeps"] = [](const YAML::Node& n, SceneOptions& o) { o.substeps = readInt(n); };
+  s["substeps"] = [](const YAML::Node& n, SceneOptions& o) {
+    if (n.IsScalar() && n.Scalar() == kAutoSubstepsName) {
+      o.substeps = SceneOptions::kAutoSubsteps;
+      return;
+    }
+    o.substeps = readInt(n);
+    // 0 is how `auto` is stored; written as a number it is a mistake, not a request for auto.
+    if (o.substeps == SceneOptions::kAutoSubsteps) throw WrongType{std::string("'") + kAutoSubstepsName + "' or an integer in [1, " +
+                                                               std::to_string(OptionLimits::kMaxSubsteps) + "]"};
+  };
+  s["guard_retries"] = [](const YAML::Node& n, SceneOptions& o) { o.guard_retries = readBool(n); };
   s["solver_tolerance"] = [](const YAML::Node& n, SceneOptions& o) { o.solver.tolerance = readDouble(n); };
   s["threads"] = [](const YAML::Node& n, SceneOptions& o) { o.threads = readInt(n); };
   s["solver_max_iterations"] = [](const YAML::Node& n, SceneOptions& o) { o.solver.max_iterations = readInt(n); };
@@ -384,6 +397,127 @@ bool loadSceneFile(const std::string& path, SceneOptions* options, std::vector<s
   if (!problems.empty()) return false;
   *options = loaded;
   return true;
+}
+
+namespace {
+
+/// The shortest decimal (15 to 17 significant digits) that reads back to the same bits: 17 always do;
+/// fewer keep 0.1 readable as 0.1.
+std::string exactNumber(double value) {
+  if (std::isnan(value)) return ".nan";
+  if (std::isinf(value)) return value > 0.0 ? ".inf" : "-.inf";
+  constexpr int kFewestDigits = 15;
+  constexpr int kRoundTripDigits = 17;
+  char text[32];
+  for (int digits = kFewestDigits; digits <= kRoundTripDigits; ++digits) {
+    std::snprintf(text, sizeof(text), "%.*g", digits, value);
+    if (std::strtod(text, nullptr) == value && std::signbit(std::strtod(text, nullptr)) == std::signbit(value)) break;
+  }
+  return text;
+}
+
+void emitVector(YAML::Emitter& out, const Eigen::Vector3d& v) {
+  out << YAML::Flow << YAML::BeginSeq << exactNumber(v.x()) << exactNumber(v.y()) << exactNumber(v.z())
+      << YAML::EndSeq;
+}
+
+void emitString(YAML::Emitter& out, const std::string& text) { out << YAML::DoubleQuoted << text; }
+
+}  // namespace
+
+std::string sceneYaml(const SceneOptions& o) {
+  YAML::Emitter out;
+  out << YAML::BeginMap;
+  const auto key = [&out](const std::string& name) -> YAML::Emitter& { return out << YAML::Key << name << YAML::Value; };
+  const auto number = [&key](const std::string& name, double value) { key(name) << exactNumber(value); };
+  const auto vector = [&key, &out](const std::string& name, const Eigen::Vector3d& value) {
+    key(name);
+    emitVector(out, value);
+  };
+  const auto boolean = [&key](const std::string& name, bool value) { key(name) << (value ? "true" : "false"); };
+  key("name");
+  emitString(out, o.name);
+  key("rows") << o.rows;
+  key("cols") << o.cols;
+  number("width", o.width_m);
+  number("height", o.height_m);
+  vector("origin", o.origin_m);
+  vector("u_axis", o.u_axis);
+  vector("v_axis", o.v_axis);
+  number("mass", o.mass_kg);
+  vector("gravity", o.gravity_m_per_s2);
+  for (int k = 0; k < kSpringKindCount; ++k) {
+    const std::string kind = springKindName(static_cast<SpringKind>(k));
+    boolean(kind + "_enabled", o.springs[k].enabled);
+    number(kind + "_stiffness", o.springs[k].stiffness_N_per_m);
+    number(kind + "_damping", o.springs[k].damping_N_s_per_m);
+  }
+  number("air_damping", o.air_damping_N_s_per_m);
+  boolean("wind_enabled", o.wind_enabled);
+  vector("wind", o.wind.velocity_m_per_s);
+  key("wind_model") << (o.wind.model == WindModel::kPaper ? "paper" : "aerodynamic");
+  number("wind_coefficient", o.wind.paper_coefficient_N_s_per_m);
+  number("air_density", o.wind.air_density_kg_per_m3);
+  number("drag_coefficient", o.wind.drag_coefficient);
+  number("wind_gust_amplitude", o.wind.gust_amplitude);
+  number("wind_gust_period", o.wind.gust_period_s);
+  key("pins") << YAML::Flow << YAML::BeginSeq;
+  for (const std::string& pin : o.pins) emitString(out, pin);
+  out << YAML::EndSeq;
+  key("pin_positions") << YAML::BeginSeq;
+  for (const Eigen::Vector3d& position : o.pin_positions_m) emitVector(out, position);
+  out << YAML::EndSeq;
+  number("pin_travel_time", o.pin_travel_time_s);
+  vector("pin_motion_amplitude", o.pin_motion_amplitude_m);
+  number("pin_motion_period", o.pin_motion_period_s);
+  key("planes") << YAML::BeginSeq;
+  for (const PlaneCollider& plane : o.colliders.planes) {
+    out << YAML::BeginMap << YAML::Key << "normal" << YAML::Value;
+    emitVector(out, plane.normal);
+    out << YAML::Key << "offset" << YAML::Value << exactNumber(plane.offset_m) << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+  key("spheres") << YAML::BeginSeq;
+  for (const SphereCollider& sphere : o.colliders.spheres) {
+    out << YAML::BeginMap << YAML::Key << "center" << YAML::Value;
+    emitVector(out, sphere.center_m);
+    out << YAML::Key << "radius" << YAML::Value << exactNumber(sphere.radius_m);
+    out << YAML::Key << "velocity" << YAML::Value;
+    emitVector(out, sphere.velocity_m_per_s);
+    out << YAML::Key << "amplitude" << YAML::Value;
+    emitVector(out, sphere.oscillation_amplitude_m);
+    out << YAML::Key << "period" << YAML::Value << exactNumber(sphere.oscillation_period_s) << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+  key("boxes") << YAML::BeginSeq;
+  for (const BoxCollider& box : o.colliders.boxes) {
+    out << YAML::BeginMap << YAML::Key << "min" << YAML::Value;
+    emitVector(out, box.min_m);
+    out << YAML::Key << "max" << YAML::Value;
+    emitVector(out, box.max_m);
+    out << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+  number("contact_depth", o.contact.depth_m);
+  number("restitution", o.contact.restitution);
+  number("friction", o.contact.friction);
+  number("grasp_stiffness", o.grasp_stiffness_N_per_m);
+  number("grasp_damping", o.grasp_damping_N_s_per_m);
+  key("integrator") << integratorName(o.integrator);
+  if (o.autoSubsteps()) {
+    key("substeps") << kAutoSubstepsName;
+  } else {
+    key("substeps") << o.substeps;
+  }
+  boolean("guard_retries", o.guard_retries);
+  number("solver_tolerance", o.solver.tolerance);
+  key("solver_max_iterations") << o.solver.max_iterations;
+  key("threads") << o.threads;
+  number("frame_rate", o.frame_rate_hz);
+  key("texture");
+  emitString(out, o.texture);
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
 }
 
 }  // namespace cloth_sim::core

@@ -1,13 +1,17 @@
 #include "cloth_sim/ros/cloth_node.h"
 
 #include "cloth_sim/io/scene_file.h"
+#include "cloth_sim/io/state_file.h"
 #include "cloth_sim/io/texture.h"
 #include "cloth_sim/ros/conversions.h"
 
+#include <boost/make_shared.hpp>
 #include <ros/package.h>
 #include <tf2_geometry_msgs/tf2_geometry_msgs.h>
 
+#include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <set>
 #include <sstream>
 
@@ -36,6 +40,8 @@ constexpr const char* kDefaultScene = "drape";
 /// A mesh counts as due this fraction of a frame before its period is up (timer ticks jitter).
 constexpr double kMeshPeriodTolerance = 0.5;
 constexpr double kMillisecondsPerSecond = 1000.0;
+/// How often a service thread waiting for its ~step looks whether the node is shutting down.
+constexpr std::chrono::milliseconds kStepWaitPoll{100};
 
 }  // namespace
 
@@ -88,8 +94,20 @@ bool ClothNode::start(std::string* error) {
   grasp_sub_ = pnh_.subscribe(Names::kGraspTopic, 10, &ClothNode::onGrasp, this);
   reset_srv_ = pnh_.advertiseService(Names::kResetService, &ClothNode::onReset, this);
   pause_srv_ = pnh_.advertiseService(Names::kPauseService, &ClothNode::onPause, this);
-  step_srv_ = pnh_.advertiseService(Names::kStepService, &ClothNode::onStep, this);
+  // ~step waits for its frames on a thread of its own, so the spin thread stays free to run them in chunks
+  // between the other callbacks (and to notice a shutdown).
+  ros::AdvertiseServiceOptions step_options;
+  step_options.init<cloth_sim::Step>(Names::kStepService, [this](cloth_sim::Step::Request& request,
+                                                                 cloth_sim::Step::Response& response) {
+    return onStep(request, response);
+  });
+  step_options.callback_queue = &step_queue_;
+  step_srv_ = pnh_.advertiseService(step_options);
+  step_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &step_queue_);
+  step_spinner_->start();
   load_scene_srv_ = pnh_.advertiseService(Names::kLoadSceneService, &ClothNode::onLoadScene, this);
+  save_state_srv_ = pnh_.advertiseService(Names::kSaveStateService, &ClothNode::onSaveState, this);
+  load_state_srv_ = pnh_.advertiseService(Names::kLoadStateService, &ClothNode::onLoadState, this);
 
   // In its own namespace: dynamic_reconfigure leaves its values on the parameter server, where the next
   // start-up would otherwise read them as overrides of the next scene.
@@ -118,6 +136,16 @@ bool ClothNode::start(std::string* error) {
            core::integratorName(simulation_->options().integrator), simulation_->options().substeps,
            simulation_->options().frame_rate_hz, frame_id_.c_str());
   return true;
+}
+
+ClothNode::~ClothNode() {
+  {
+    std::lock_guard<std::mutex> lock(step_mutex_);
+    step_stopping_ = true;
+  }
+  step_done_.notify_all();
+  if (step_spinner_) step_spinner_->stop();
+  pnh_.getCallbackQueue()->removeByID(reinterpret_cast<std::uint64_t>(this));
 }
 
 std::unique_ptr<core::Simulation> ClothNode::buildSimulation(const std::string& scene, bool overlay_parameters,
@@ -176,7 +204,9 @@ void ClothNode::install(std::unique_ptr<core::Simulation> simulation) {
   // Everything that can throw comes before the swap (ros::Duration throws beyond 2^31 s; the validated
   // frame rate keeps it far inside), so a failure leaves the running scene in place.
   const ros::Duration frame_period(simulation->options().frameDuration_s());
+  cancelStep("the scene was replaced");
   simulation_ = std::move(simulation);
+  step_cost_ms_ = 0.0;  // the old scene's cost says nothing about this one's
   timer_.setPeriod(frame_period);
   last_report_ = core::FrameReport();
   reanchor();
@@ -225,7 +255,7 @@ void ClothNode::onTimer(const ros::TimerEvent&) {
 }
 
 bool ClothNode::advanceFrames(int frames) {
-  for (int k = 0; k < frames; ++k) {
+  for (int k = 0; k < frames && ros::ok(); ++k) {  // a shutdown does not wait for the frames owed
     const auto start = std::chrono::steady_clock::now();
     last_report_ = simulation_->advanceFrame();
     step_cost_ms_ =
@@ -334,6 +364,7 @@ void ClothNode::onGrasp(const cloth_sim::Grasp::ConstPtr& message) {
 }
 
 bool ClothNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
+  cancelStep("~reset restarted the scene");
   simulation_->reset();
   reanchor();
   publish(ros::Time::now());
@@ -343,34 +374,138 @@ bool ClothNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response
 }
 
 bool ClothNode::onPause(std_srvs::SetBool::Request& request, std_srvs::SetBool::Response& response) {
-  paused_ = request.data;
-  reanchor();
   response.success = true;
+  if (request.data == paused_) {
+    // Idempotent: re-anchoring here would restart the frame clock, and a client repeating ~pause false
+    // faster than the frame rate would hold the cloth still.
+    response.message = paused_ ? "already paused at frame " + std::to_string(simulation_->state().frame)
+                               : "already running";
+    return true;
+  }
+  paused_ = request.data;
+  if (!paused_) cancelStep("~pause false resumed real time");
+  reanchor();
   response.message = paused_ ? "paused at frame " + std::to_string(simulation_->state().frame) : "running";
   return true;
 }
 
+/// Runs one chunk of a ~step job on the node's callback queue (the spin thread).
+class ClothNode::StepChunk : public ros::CallbackInterface {
+ public:
+  StepChunk(ClothNode* node, std::shared_ptr<StepJob> job) : node_(node), job_(std::move(job)) {}
+  CallResult call() override {
+    node_->runStepChunk(job_);
+    return Success;
+  }
+
+ private:
+  ClothNode* node_;
+  std::shared_ptr<StepJob> job_;
+};
+
 bool ClothNode::onStep(cloth_sim::Step::Request& request, cloth_sim::Step::Response& response) {
-  response.sim_time = simulation_->state().time_s;
-  if (!paused_) {
-    response.success = false;
-    response.message = "not paused: call ~pause with data=true first";
-    return true;
+  auto job = std::make_shared<StepJob>();
+  job->frames = request.frames;
+  queueStepChunk(job);
+  std::unique_lock<std::mutex> lock(step_mutex_);
+  while (!job->done) {
+    // Woken now and then to notice a shutdown: the spin thread stops running chunks then.
+    if (!ros::ok() || step_stopping_) {
+      response.success = false;
+      response.message = "the node is shutting down";
+      return true;
+    }
+    step_done_.wait_for(lock, kStepWaitPoll);
   }
-  if (request.frames == 0 || request.frames > kMaxStepFrames) {
-    response.success = false;
-    response.message = "frames = " + std::to_string(request.frames) + ": must be in [1, " +
-                       std::to_string(kMaxStepFrames) + "]";
-    return true;
-  }
-  const std::uint64_t frame_before = simulation_->state().frame;
-  response.success = advanceFrames(static_cast<int>(request.frames));
-  publish(ros::Time::now());
-  response.sim_time = simulation_->state().time_s;
-  const std::uint64_t advanced = simulation_->state().frame - frame_before;
-  response.message = response.success ? "advanced " + std::to_string(advanced) + " frames"
-                                      : "stopped after " + std::to_string(advanced) + " frames: " + last_report_.reason;
+  response = job->response;
   return true;
+}
+
+void ClothNode::queueStepChunk(const std::shared_ptr<StepJob>& job) {
+  pnh_.getCallbackQueue()->addCallback(boost::make_shared<StepChunk>(this, job),
+                                       reinterpret_cast<std::uint64_t>(this));
+}
+
+std::string ClothNode::refuseStep(const StepJob& job) const {
+  if (!paused_) return "not paused: call ~pause with data=true first";
+  if (active_step_) return "another ~step is in progress";
+  if (job.frames == 0 || job.frames > kMaxStepFrames) {
+    return "frames = " + std::to_string(job.frames) + ": must be in [1, " + std::to_string(kMaxStepFrames) + "]";
+  }
+  // The last frame's cost is the estimate (none yet: the overrun limit still bounds the call).
+  const double frame_cost_s = step_cost_ms_ / kMillisecondsPerSecond;
+  const double most_frames = frame_cost_s > 0.0 ? std::max(1.0, std::floor(kMaxStepWork_s / frame_cost_s)) : 0.0;
+  if (frame_cost_s > 0.0 && job.frames > most_frames) {
+    std::ostringstream reason;
+    reason << std::fixed << std::setprecision(1) << "frames = " << job.frames << " would take about "
+           << std::lround(job.frames * frame_cost_s) << " s at " << step_cost_ms_
+           << " ms per frame (the last frame's cost); one call may take at most " << kMaxStepWork_s
+           << " s: ask for at most " << static_cast<std::uint64_t>(most_frames) << " frames per call";
+    return reason.str();
+  }
+  return "";
+}
+
+void ClothNode::runStepChunk(const std::shared_ptr<StepJob>& job) {
+  if (!job->started) {
+    const std::string refusal = refuseStep(*job);
+    if (!refusal.empty()) {
+      answerStep(*job, false, refusal);
+      return;
+    }
+    job->started = true;
+    job->first_frame = simulation_->state().frame;
+    job->start_time = std::chrono::steady_clock::now();
+    active_step_ = job;
+  }
+  if (active_step_ != job) return;  // cancelled (and answered) while this chunk waited in the queue
+  const auto overrun = std::chrono::duration<double>(kMaxStepWork_s * kStepOverrunFactor);
+  const auto chunk_end = std::chrono::steady_clock::now() + std::chrono::duration<double>(kStepChunk_s);
+  while (simulation_->state().frame - job->first_frame < job->frames) {
+    const auto now = std::chrono::steady_clock::now();
+    if (!ros::ok()) {
+      cancelStep("the node is shutting down");
+      return;
+    }
+    if (now - job->start_time > overrun) {
+      std::ostringstream reason;
+      reason << "the call ran past " << kMaxStepWork_s * kStepOverrunFactor << " s, " << kStepOverrunFactor
+             << " times the " << kMaxStepWork_s << " s a call may be expected to take";
+      cancelStep(reason.str());
+      return;
+    }
+    if (now >= chunk_end) {
+      queueStepChunk(job);  // the rest after the callbacks queued meanwhile
+      return;
+    }
+    if (!advanceFrames(1)) {
+      const std::uint64_t advanced = simulation_->state().frame - job->first_frame;
+      finishStep(false, "stopped after " + std::to_string(advanced) + " frames: " + last_report_.reason);
+      return;
+    }
+  }
+  finishStep(true, "advanced " + std::to_string(job->frames) + " frames");
+}
+
+void ClothNode::answerStep(StepJob& job, bool success, const std::string& message) {
+  std::lock_guard<std::mutex> lock(step_mutex_);
+  job.response.success = success;
+  job.response.message = message;
+  job.response.sim_time = simulation_->state().time_s;
+  job.done = true;
+  step_done_.notify_all();
+}
+
+void ClothNode::finishStep(bool success, const std::string& message) {
+  if (ros::ok()) publish(ros::Time::now());
+  answerStep(*active_step_, success, message);
+  active_step_.reset();
+}
+
+void ClothNode::cancelStep(const std::string& reason) {
+  if (!active_step_) return;
+  const std::uint64_t advanced = simulation_->state().frame - active_step_->first_frame;
+  finishStep(false, "stopped after " + std::to_string(advanced) + " frames: " + reason);
 }
 
 bool ClothNode::onLoadScene(cloth_sim::LoadScene::Request& request, cloth_sim::LoadScene::Response& response) {
@@ -474,7 +609,7 @@ void ClothNode::publishReconfigureRanges() {
   high.structural_damping = high.shear_damping = high.bend_damping = high.air_damping = L::kMaxDampingN_s_per_m;
   low.wind_x = low.wind_y = low.wind_z = -L::kMaxWindSpeed_m_per_s;
   high.wind_x = high.wind_y = high.wind_z = L::kMaxWindSpeed_m_per_s;
-  low.substeps = 1;
+  low.substeps = core::SceneOptions::kAutoSubsteps;  // 0: auto, as the scenes use it
   high.substeps = L::kMaxSubsteps;
   low.solver_tolerance = L::kMinSolverTolerance;
   high.solver_tolerance = 1.0;
@@ -553,6 +688,56 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   dropped_frames_ = 0;
   window_sim_s_ = 0.0;
   window_start_ = now;
+}
+
+bool ClothNode::onSaveState(cloth_sim::SaveState::Request& request, cloth_sim::SaveState::Response& response) {
+  std::string error;
+  if (!core::writeStateFile(request.path, simulation_->snapshot(), &error)) {
+    response.success = false;
+    response.message = "not saved: " + error;
+    return true;
+  }
+  response.success = true;
+  response.message = "saved frame " + std::to_string(simulation_->state().frame) + " to " + request.path;
+  ROS_INFO("cloth_node: %s", response.message.c_str());
+  return true;
+}
+
+bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::LoadState::Response& response) {
+  // Messages name the path and numbers only: never text from the file (any ROS peer may ask).
+  const auto refuse = [&response](const std::string& reason) {
+    response.success = false;
+    response.message = "not loaded: " + reason + "; the running cloth is untouched";
+    return true;
+  };
+  core::SimulationSnapshot snapshot;
+  std::string error;
+  if (!core::readStateFile(request.path, &snapshot, &error)) return refuse(error);
+  const core::ClothGrid& grid = simulation_->grid();
+  if (snapshot.options.rows != grid.rows || snapshot.options.cols != grid.cols) {
+    return refuse(request.path + " holds a " + std::to_string(snapshot.options.rows) + "x" +
+                  std::to_string(snapshot.options.cols) + " cloth, the running scene is " + std::to_string(grid.rows) +
+                  "x" + std::to_string(grid.cols) + ": load a scene of that size first (~load_scene)");
+  }
+  Eigen::Matrix3Xf colors;
+  const bool new_texture = snapshot.options.texture != simulation_->options().texture;
+  if (new_texture && !core::sceneVertexColors(snapshot.options.texture, grid.uv, &colors, &error)) {
+    return refuse("its texture does not load");
+  }
+  if (!simulation_->restore(snapshot, &error)) return refuse(error);
+  if (new_texture) simulation_->setVertexColors(colors);
+  timer_.setPeriod(ros::Duration(simulation_->options().frameDuration_s()));
+  last_report_ = core::FrameReport();
+  reanchor();  // the loaded frame is due now: the run continues from here at the frame rate
+  pushConfig();
+  publish(ros::Time::now());
+  std::ostringstream message;
+  message << "loaded frame " << simulation_->state().frame << " (t = " << simulation_->state().time_s << " s, "
+          << grid.rows << "x" << grid.cols << ", " << simulation_->grasps().size() << " grasps) from " << request.path;
+  response.success = true;
+  response.message = message.str();
+  ROS_INFO("cloth_node: %s", response.message.c_str());
+  return true;
 }
 
 }  // namespace cloth_sim

@@ -62,18 +62,25 @@ INSTANTIATE_TEST_SUITE_P(BuiltinScenes, EveryScene,
                          ::testing::Values("hanging", "drape", "flag", "curtain", "tablecloth", "ball", "drop"),
                          [](const ::testing::TestParamInfo<std::string>& info) { return info.param; });
 
-TEST_P(EveryScene, At128x128ItsOwnDefaultsRunASecondWithNoFrameRolledBackOrRecomputed) {
+TEST_P(EveryScene, At128x128ItsOwnDefaultsRunASecondWithNoFrameRolledBackAndAutoLearnsWithinAFewFrames) {
   // What froze every scene before implicit Euler: at 128 x 128 the explicit step limit is near 1e-5 s.
+  // With `auto` a frame the guard rejects (the flag's per-triangle wind pushes 128 x 128 hard in its
+  // first frame) is recomputed and remembered, so only the first few frames pay for it.
+  constexpr int kLearningFrames = 3;
   SceneOptions o = loadBuiltinScene(GetParam());
+  ASSERT_TRUE(o.autoSubsteps()) << "every built-in scene runs with substeps: auto";
   o.rows = 128;
   o.cols = 128;
   Simulation sim(o);
   constexpr int kOneSecondOfFrames = 50;
+  int recomputed = 0;
   for (int frame = 0; frame < kOneSecondOfFrames; ++frame) {
     const FrameReport report = sim.advanceFrame();
     ASSERT_TRUE(report.stable) << o.name << " frame " << frame << ": " << report.reason;
-    ASSERT_FALSE(report.recomputed) << o.name << " frame " << frame << ": " << report.reason;
+    ASSERT_TRUE(report.recovery.empty()) << o.name << " frame " << frame << ": " << report.reason;
+    if (report.recomputed) ++recomputed;
   }
+  EXPECT_LE(recomputed, kLearningFrames) << o.name;
   EXPECT_EQ(sim.state().frame, static_cast<std::uint64_t>(kOneSecondOfFrames));
   EXPECT_TRUE(isFiniteAndBounded(sim.state(), Simulation::kDivergenceBound_m));
 }

@@ -45,6 +45,9 @@ struct OptionLimits {
   static constexpr int kMaxThreads = 64;
 };
 
+/// The value of the `substeps` key (scene files, parameters) that asks for SceneOptions::kAutoSubsteps.
+inline constexpr const char* kAutoSubstepsName = "auto";
+
 struct SceneOptions {
   std::string name = "hanging";
 
@@ -86,10 +89,18 @@ struct SceneOptions {
   double grasp_stiffness_N_per_m = 50.0;  ///< used when a grasp asks for 0
   double grasp_damping_N_s_per_m = 0.5;
 
-  /// Implicit Euler at one step per frame: stable at every grid size and stiffness the options accept
-  /// (doc/PHYSICS.md says when an explicit method is the better trade).
+  /// `substeps: auto`: the guard picks the substeps of each frame from the scene's highest frequency and
+  /// the integrator's stability region (StabilityGuard).
+  static constexpr int kAutoSubsteps = 0;
+
+  /// Implicit Euler with `auto` substeps (one step per frame while its solve converges): stable at every
+  /// grid size and stiffness the options accept (doc/ACCURACY.md says when an explicit method is the
+  /// better trade).
   IntegratorKind integrator = IntegratorKind::kImplicitEuler;
-  int substeps = 1;             ///< per frame
+  int substeps = kAutoSubsteps;  ///< per frame, or kAutoSubsteps
+  /// A frame the guard rejects is recomputed with 2x, 4x, 8x the substeps before it is rolled back;
+  /// false: computed once (fixed-step accuracy runs, tests), rejected frames still rolled back and reported.
+  bool guard_retries = true;
   SolverOptions solver;         ///< implicit_euler's linear solve: tolerance and iteration cap per step
   /// Threads for the force kernels and the solver on grids of 4096 particles or more. 1 by default: on
   /// the 2-vCPU machines this project is measured on, a second thread made the vectorised kernels
@@ -101,6 +112,8 @@ struct SceneOptions {
   std::string texture;
 
   double frameDuration_s() const { return 1.0 / frame_rate_hz; }
+  bool autoSubsteps() const { return substeps == kAutoSubsteps; }
+  /// The step of a fixed substep count, s (with `auto` the guard decides it frame by frame).
   double substep_s() const { return frameDuration_s() / substeps; }
 };
 

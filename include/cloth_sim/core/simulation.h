@@ -9,6 +9,7 @@
 #include "cloth_sim/core/inputs.h"
 #include "cloth_sim/core/integrators.h"
 #include "cloth_sim/core/options.h"
+#include "cloth_sim/core/snapshot.h"
 #include "cloth_sim/core/stability_guard.h"
 #include "cloth_sim/core/state.h"
 
@@ -34,15 +35,26 @@ struct GraspRequest {
 struct EnergyReport {
   double kinetic_J = 0.0;
   double potential_J = 0.0;  ///< gravity (relative to z = 0 along -gravity) plus elastic spring energy
+  double elastic_J = 0.0;    ///< the springs' part of potential_J
 };
 
 /// The outcome of one frame.
 struct FrameReport {
-  bool stable = true;     ///< false: the frame diverged even with the guard's extra substeps and was rolled
-                          ///< back (the state is the previous one)
-  std::string reason;     ///< why it is not OK: empty, a warning (recomputed, over-stretched), or the divergence
+  bool stable = true;     ///< false: the guard rejected every computation of the frame and rolled it back
+                          ///< (the state is the previous one)
+  std::string reason;     ///< why it is not OK: empty, a warning (recomputed, margin, over-stretched, recovered)
+                          ///< or the rollback
   int substeps_used = 0;  ///< substeps of the accepted (or last tried) computation of the frame
-  bool recomputed = false;  ///< the guard recomputed the frame with more substeps than the scene's
+  bool recomputed = false;  ///< the guard rejected the first computation and recomputed with more substeps
+  std::string rejection;    ///< the guard's last objection (empty if the first computation was accepted)
+  /// Non-empty when repeated rollbacks made the simulation recover by itself: what it did (switched to
+  /// implicit Euler, or reset the scene). The node reports it as an ERROR.
+  std::string recovery;
+  /// The integrator's largest stable step for this scene's bound on its frequencies, s (infinite for
+  /// implicit Euler) and the first computation's step divided by it: above 1 the step is past the
+  /// method's stability limit, near 1 it is close to it.
+  double stable_step_s = 0.0;
+  double stability_margin = 0.0;
   ContactStats contacts;  ///< summed over the frame's substeps
   StepReport steps;       ///< the integrator's work summed over the accepted computation's substeps
   double max_strain = 0.0;  ///< largest structural stretch (|d| - L) / L after the frame
@@ -59,7 +71,7 @@ class Simulation {
   static constexpr double kMaxGraspForce_N = 1e4;
   /// Most grasps held at once; each costs work in every force evaluation.
   static constexpr std::size_t kMaxGrasps = 16;
-  /// A diverged frame is recomputed with 2x, 4x, ... 2^kGuardDoublings x the substeps before it is rolled back.
+  /// A rejected frame is recomputed with 2x, 4x, ... 2^kGuardDoublings x the substeps before it is rolled back.
   static constexpr int kGuardDoublings = StabilityGuard::kDefaultDoublings;
 
   /// options must have passed validateSceneOptions; throws std::invalid_argument otherwise.
@@ -78,14 +90,19 @@ class Simulation {
   ClothForceModel& forceModel() { return force_model_; }
   const Eigen::VectorXd& massPerParticle_kg() const { return mass_kg_; }
 
-  /// Advances one frame (options().frameDuration_s()) in options().substeps substeps. A frame that
-  /// diverges is recomputed with more substeps (see kGuardDoublings); if it still diverges the state is
-  /// restored to the frame's start. The report says which happened.
+  /// Advances one frame (options().frameDuration_s()) in options().substeps substeps, or with `auto` in as
+  /// many as the integrator's stability limit needs (see StabilityGuard). A frame the guard rejects
+  /// (diverged, energy gained beyond the inputs' work, strain beyond the forces') is recomputed with more
+  /// substeps (see kGuardDoublings, unless options().guard_retries is off); if every attempt is rejected
+  /// the state is restored to the frame's start. After GuardMemory::kRollbacksBeforeRecovery such frames
+  /// in a row it recovers by itself: implicit Euler with auto substeps from then on, or, if even that is
+  /// rejected, the scene's initial state. The report says which happened.
   FrameReport advanceFrame();
 
   /// Back to the scene's initial state: grasps released, pins re-hooked. Tuning (retune, wind) is kept.
   void reset();
-  /// Replaces the whole state (a saved snapshot); false with *error if the particle count differs.
+  /// Replaces the state, keeping options and inputs; false with *error (state unchanged) if it would not
+  /// pass restore(): wrong particle count, non-finite or out-of-bound values.
   bool restoreState(const ClothState& state, std::string* error);
 
   /// Live tuning: accepts new options when they keep the grid (rows, cols, size, pose, pins and mass
@@ -113,9 +130,36 @@ class Simulation {
   bool setVertexColors(const Eigen::Matrix3Xf& colors);
 
   EnergyReport energies() const;
+  /// Kinetic, gravity, spring and grasp energy (a held particle's spring to its hand and the hand's
+  /// constant force), J: what the guard holds a frame's energy budget against.
+  double totalEnergy_J() const;
   double maxStructuralStrain() const;
+  /// What `auto` remembers between frames (part of a snapshot: a restored run chooses the same substeps).
+  const GuardMemory& guardMemory() const { return memory_; }
+
+  /// Everything needed to continue this run elsewhere: options in force, state and inputs.
+  SimulationSnapshot snapshot() const;
+  /// Replaces options, state and inputs with the snapshot's, all or nothing: false with *error (and
+  /// nothing changed) unless the options validate and keep the grid (as retune requires), the state has
+  /// this grid's particle count and is finite and within kDivergenceBound_m, and the inputs fit (the
+  /// resolved pins, one hook and travel per pin, at most kMaxGrasps grasps with unique ids on existing
+  /// particles, finite values within the limits grab and the wind topic enforce). Advancing after a
+  /// restore gives the same bits as the run the snapshot was taken from.
+  bool restore(const SimulationSnapshot& snapshot, std::string* error);
 
  private:
+  /// Substeps of a frame's first computation: the fixed count, or for `auto` the count the stable step
+  /// needs times the remembered scale. *warning (if given) says when explicit needs more than the cap.
+  int firstSubsteps(double stable_step_s, std::string* warning) const;
+  /// The energy and strain budgets of the frame about to be computed, from the state and the inputs.
+  FrameEnvelope frameEnvelope() const;
+  /// Computes the frame from state_ (= frame_start_) with the guard's attempts; false (state restored)
+  /// if every attempt was rejected.
+  bool computeFrame(const FrameEnvelope& envelope, int first_substeps, FrameReport* report);
+  /// Updates `auto`'s memory after an accepted frame.
+  void rememberFrame(const FrameReport& report, int first_substeps);
+  /// After repeated rollbacks: implicit Euler with auto substeps, or the initial state. Always true.
+  bool recover(const FrameEnvelope& envelope, FrameReport* report);
   /// Runs one frame in the given number of substeps from the current state; adds the integrator's work
   /// to *steps.
   ContactStats integrateFrame(int substeps, StepReport* steps);
@@ -127,6 +171,9 @@ class Simulation {
   ClothInputs inputs_;
   ClothForceModel force_model_;  ///< reads options_, grid_, mass_kg_ and inputs_ (declared before it)
   StabilityGuard guard_;
+  GuardMemory memory_;
+  StiffnessBound bound_;     ///< of options_, masses and grasps; recomputed when bound_stale_
+  bool bound_stale_ = true;
   ClothState state_;
   ClothState frame_start_;               ///< rollback point, scratch
   Eigen::Matrix3Xd substep_start_positions_m_;  ///< scratch for the contact sweep

@@ -1,10 +1,75 @@
-// The stability guard: decides whether a computed frame is acceptable and, if not, with how many
-// substeps to recompute it before giving up and rolling it back.
+// The stability guard, in two halves.
+//
+// Before a frame (predictive): bounds the highest frequency of the linearised cloth from its stiffness,
+// damping, grasp springs and particle masses (Gershgorin's theorem on M^-1 K and M^-1 D, no solve), and
+// turns that into the largest step each integrator's stability region allows. `substeps: auto` takes
+// its substeps from that; a fixed count is reported with its margin (step / largest stable step).
+//
+// After a frame (detective): decides whether a computed frame is physically plausible -- finite, inside
+// the 1,000 m box, no energy gained beyond what the inputs can do, no strain jump no force in the scene
+// can cause -- and, if not, with how many substeps to recompute it before rolling it back.
 #pragma once
 
+#include "cloth_sim/core/grid.h"
+#include "cloth_sim/core/inputs.h"
+#include "cloth_sim/core/integrators.h"
+#include "cloth_sim/core/options.h"
 #include "cloth_sim/core/state.h"
 
+#include <Eigen/Core>
+
+#include <string>
+
 namespace cloth_sim::core {
+
+/// Upper bounds on the rates of the linearised cloth M x'' = -K x - D x' around any state (world frame).
+struct StiffnessBound {
+  /// sqrt of a bound on the largest eigenvalue of M^-1 K (springs at full stretch, grasps), rad/s.
+  double omega_max_rad_per_s = 0.0;
+  /// Bound on the largest eigenvalue of M^-1 D from damping that grows with the spring's mode (spring
+  /// and grasp damping), 1/s.
+  double damping_max_per_s = 0.0;
+  /// Damping every mode feels alike (air damping, the wind's drag), 1/s.
+  double uniform_damping_per_s = 0.0;
+};
+
+/// Gershgorin bounds for the scene as it is now (options, grid, per-particle masses in kg, grasps in
+/// inputs). Each spring of stiffness k adds at most k to its two particles' diagonal blocks and k to the
+/// off-diagonal sum (the transverse term k (1 - L/l) of a stretched spring is below k until l > 2 L), so
+/// lambda_max(M^-1 K) <= max_i 2 sum_{springs at i} k / m_i. O(springs); no solve.
+StiffnessBound estimateStiffnessBound(const SceneOptions& options, const ClothGrid& grid,
+                                      const Eigen::VectorXd& mass_kg, const ClothInputs& inputs);
+
+/// The largest step (s) at which the integrator is stable for every mode under the bound: modes with
+/// stiffness t omega_max^2 and damping t damping_max + uniform_damping for t in (0, 1], each required to
+/// lie in the method's stability region (symplectic Euler: h^2 kappa + 2 h gamma < 4, the Jury
+/// conditions of its 2x2 update; the others: |R(h s)| <= 1 with R their stability polynomial). Infinite
+/// for implicit Euler; 0 when no step is stable (forward Euler and midpoint without damping).
+double stableStepLimit_s(IntegratorKind kind, const StiffnessBound& bound);
+
+/// What the guard checks a computed frame against.
+struct FrameEnvelope {
+  double energy_before_J = 0.0;     ///< total energy (kinetic, gravity, springs, grasps) at the frame's start
+  double energy_allowance_J = 0.0;  ///< most energy the inputs (wind, moving pins and colliders) can add
+  double strain_before = 0.0;       ///< largest structural strain at the frame's start
+  /// Strain the scene's largest force (weight, grasps, wind) can add to a structural spring: F / (k L).
+  double strain_allowance = 0.0;
+};
+
+/// What `auto` remembers between frames, so that it does not start every frame from the same too-small
+/// guess. Part of a simulation's snapshot (a restored run must choose the same substeps).
+struct GuardMemory {
+  /// `auto` substeps are the predicted count times this (a power of two): multiplied by what a frame
+  /// needed when the guard rejected its first computation, and kept until the options change or the
+  /// scene is reset (a cloth on a table's edge that needed two implicit steps once jitters at one).
+  int auto_scale = 1;
+  int consecutive_rollbacks = 0;  ///< frames rolled back in a row (recovery starts at kRollbacksBeforeRecovery)
+  /// Largest auto_scale: a frame that needs more than 64x the predicted substeps is not a prediction problem.
+  static constexpr int kMaxScale = 1 << 6;
+  /// Frames rolled back in a row before the simulation recovers by itself (switches to implicit Euler,
+  /// and resets the scene if even that cannot compute a plausible frame).
+  static constexpr int kRollbacksBeforeRecovery = 3;
+};
 
 class StabilityGuard {
  public:
@@ -13,15 +78,27 @@ class StabilityGuard {
   /// A diverged frame is recomputed with 2x, 4x, ... 2^kDefaultDoublings x the substeps before it is
   /// rolled back.
   static constexpr int kDefaultDoublings = 3;
+  /// `auto` takes this fraction of the largest stable step: the bound is an upper bound, but the cloth is
+  /// non-linear (strain stiffens the transverse terms) and contacts and pins move particles by hand.
+  static constexpr double kStepSafetyFraction = 0.8;
+  /// A frame may gain this fraction of the scene's energy scale (weight times extent plus the kinetic
+  /// energy of its fastest input) beyond the inputs' work: integration error of a stable method stays far
+  /// below it, an unstable mode passes it within a frame or two.
+  static constexpr double kEnergySlackFraction = 0.5;
+  /// A frame may raise the largest strain by at most this much plus kStrainGrowthFactor times the
+  /// strain it started with; an unstable mode multiplies strain by orders of magnitude per frame.
+  static constexpr double kStrainJump = 0.5;
+  static constexpr double kStrainGrowthFactor = 2.0;
 
   explicit StabilityGuard(int doublings = kDefaultDoublings) : doublings_(doublings) {}
 
-  /// Computations of one frame at most: the first, then one per doubling.
-  int attempts() const { return doublings_ + 1; }
-  /// Substeps of the given attempt (0: the scene's own).
-  int substeps(int base_substeps, int attempt) const { return base_substeps << attempt; }
-  /// True when the frame's result may be kept: every value finite and within the divergence bound.
-  bool accepts(const ClothState& state) const { return isFiniteAndBounded(state, kDivergenceBound_m); }
+  /// Computations of one frame at most: the first, then one per doubling (one without retries).
+  int attempts(bool retries) const { return retries ? doublings_ + 1 : 1; }
+  /// Substeps of the given attempt (0: the first).
+  int substeps(int first_substeps, int attempt) const { return first_substeps << attempt; }
+  /// Empty when the frame's result may be kept; otherwise why not (for the diagnostics).
+  std::string check(const ClothState& state, double energy_after_J, double strain_after,
+                    const FrameEnvelope& envelope) const;
 
  private:
   int doublings_;

@@ -43,4 +43,8 @@ std::vector<std::string> builtinSceneNames(const std::string& scenes_dir);
 /// is an error that names it.
 bool loadSceneFile(const std::string& path, SceneOptions* options, std::vector<std::string>* errors);
 
+/// The options as a scene map holding every key of sceneKeys(), numbers printed so that applySceneYaml
+/// reads back the same bits (17 significant digits), strings double-quoted. Used by the state file.
+std::string sceneYaml(const SceneOptions& options);
+
 }  // namespace cloth_sim::core

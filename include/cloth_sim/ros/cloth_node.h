@@ -1,10 +1,14 @@
 // The ROS face of the simulator: parameters in, a timer that advances frames, topics/services/tf out.
-// Single-threaded: every callback runs from ros::spin(), so none of them races another.
+// Single-threaded: every callback that touches the simulation runs from ros::spin(), so none of them races
+// another. The one exception is ~step's service callback, which runs on its own thread only to wait: it
+// hands its request to the spin thread, which runs the frames in chunks between the other callbacks.
 #pragma once
 
 #include "cloth_sim/ClothConfig.h"
 #include "cloth_sim/Grasp.h"
 #include "cloth_sim/LoadScene.h"
+#include "cloth_sim/LoadState.h"
+#include "cloth_sim/SaveState.h"
 #include "cloth_sim/Step.h"
 #include "cloth_sim/core/simulation.h"
 
@@ -19,8 +23,13 @@
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <ros/callback_queue.h>
+#include <ros/spinner.h>
+
 #include <chrono>
+#include <condition_variable>
 #include <memory>
+#include <mutex>
 #include <string>
 
 namespace cloth_sim {
@@ -36,6 +45,9 @@ struct Names {
   static constexpr const char* kPauseService = "pause";
   static constexpr const char* kStepService = "step";
   static constexpr const char* kLoadSceneService = "load_scene";
+  /// The whole simulation to and from a state file (doc/STATE_FILE.md).
+  static constexpr const char* kSaveStateService = "save_state";
+  static constexpr const char* kLoadStateService = "load_state";
   static constexpr const char* kSceneParam = "scene";
   static constexpr const char* kFrameIdParam = "frame_id";
   /// Mesh markers per second at most (the cloth still advances at the frame rate).
@@ -51,6 +63,14 @@ class ClothNode {
  public:
   /// Most frames one step service call may ask for.
   static constexpr std::uint32_t kMaxStepFrames = 10000;
+  /// Most wall time one ~step call may be expected to take (frames times the measured cost of the last
+  /// frame); a longer request is refused with the number of frames that would fit.
+  static constexpr double kMaxStepWork_s = 30.0;
+  /// A running ~step stops (success=false) once its wall time passes kMaxStepWork_s times this: its
+  /// estimate came from one earlier frame, and a frame can grow dearer as the cloth moves.
+  static constexpr double kStepOverrunFactor = 2.0;
+  /// Wall time one chunk of ~step frames may take before the node serves its other callbacks again.
+  static constexpr double kStepChunk_s = 0.05;
   /// Most frames a late timer tick catches up in wall-time mode; further lag is dropped (and shows as a
   /// real-time factor below 1) rather than stalling the node.
   static constexpr int kMaxCatchUpFrames = 5;
@@ -63,7 +83,22 @@ class ClothNode {
   /// reason (naming the parameter, its value and the allowed range) if anything is invalid.
   bool start(std::string* error);
 
+  /// Stops ~step's thread (it may be waiting on a step in progress) before the members it uses go.
+  ~ClothNode();
+
  private:
+  /// One ~step request: handed by the step service's thread to the spin thread, which checks it, runs its
+  /// frames in chunks and fills `response`; `done` (under step_mutex_) tells the waiting service thread.
+  struct StepJob {
+    std::uint32_t frames = 0;
+    bool started = false;
+    bool done = false;
+    std::uint64_t first_frame = 0;
+    std::chrono::steady_clock::time_point start_time;
+    cloth_sim::Step::Response response;
+  };
+  class StepChunk;
+
   /// Builds a validated simulation from a scene (name or path) overlaid with the node's private
   /// parameters (only at start-up: overlay_parameters).
   std::unique_ptr<core::Simulation> buildSimulation(const std::string& scene, bool overlay_parameters,
@@ -80,8 +115,24 @@ class ClothNode {
   void onGrasp(const cloth_sim::Grasp::ConstPtr& message);
   bool onReset(std_srvs::Trigger::Request& request, std_srvs::Trigger::Response& response);
   bool onPause(std_srvs::SetBool::Request& request, std_srvs::SetBool::Response& response);
+  /// On the step thread: hands the request to the spin thread and waits for its answer.
   bool onStep(cloth_sim::Step::Request& request, cloth_sim::Step::Response& response);
+  /// On the spin thread: checks a new job, then runs its frames for up to kStepChunk_s and queues the
+  /// next chunk behind whatever else arrived meanwhile.
+  void runStepChunk(const std::shared_ptr<StepJob>& job);
+  /// Why a new job may not run, or empty if it may.
+  std::string refuseStep(const StepJob& job) const;
+  void queueStepChunk(const std::shared_ptr<StepJob>& job);
+  /// Fills the job's answer and wakes the service thread waiting for it.
+  void answerStep(StepJob& job, bool success, const std::string& message);
+  /// Answers the job in progress after publishing the state it reached.
+  void finishStep(bool success, const std::string& message);
+  /// Stops the step in progress, if any, answering success=false with how far it got and why.
+  void cancelStep(const std::string& reason);
   bool onLoadScene(cloth_sim::LoadScene::Request& request, cloth_sim::LoadScene::Response& response);
+  bool onSaveState(cloth_sim::SaveState::Request& request, cloth_sim::SaveState::Response& response);
+  /// All or nothing: a file that does not read, validate or fit the running grid leaves the cloth as it was.
+  bool onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::LoadState::Response& response);
   void onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t level);
   /// Why a reconfigure request cannot be taken as it stands (a non-finite number, a wind over the limit,
   /// named), or "" (ranges are then checked by the core's validation in retune).
@@ -102,6 +153,7 @@ class ClothNode {
   ros::Publisher mesh_pub_, state_pub_, colliders_pub_;
   ros::Subscriber wind_sub_, grasp_sub_;
   ros::ServiceServer reset_srv_, pause_srv_, step_srv_, load_scene_srv_;
+  ros::ServiceServer save_state_srv_, load_state_srv_;
   ros::Timer timer_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   tf2_ros::StaticTransformBroadcaster static_broadcaster_;
@@ -114,6 +166,15 @@ class ClothNode {
   diagnostic_updater::Updater diagnostics_;
 
   bool paused_ = false;
+  /// ~step's service runs on its own queue and thread, so its wait never blocks the spin thread.
+  ros::CallbackQueue step_queue_;
+  std::unique_ptr<ros::AsyncSpinner> step_spinner_;
+  std::mutex step_mutex_;  ///< guards StepJob::done and ::response between the two threads
+  std::condition_variable step_done_;
+  std::shared_ptr<StepJob> active_step_;  ///< the job being run; touched by the spin thread only
+  /// Set by the destructor: a service thread still waiting gives up instead of waiting for chunks that
+  /// will never run.
+  bool step_stopping_ = false;  ///< guarded by step_mutex_
   /// Frames are due at anchor_time_ + k / frame_rate (ROS time: wall clock, or /clock under use_sim_time).
   ros::Time anchor_time_;
   ros::Time last_tick_;  ///< to notice /clock going backwards

@@ -1,0 +1,156 @@
+#include "cloth_sim/core/stability_guard.h"
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <limits>
+#include <sstream>
+
+namespace cloth_sim::core {
+
+namespace {
+
+/// A particle of a regular grid belongs to at most this many triangles (the wind's damping bound).
+constexpr double kTrianglesPerParticle = 6.0;
+/// Speed of the cloth relative to the air assumed when bounding the aerodynamic drag's damping, on top of
+/// the wind itself, m/s (a cloth that moves faster than this is caught by the energy check).
+constexpr double kClothSpeedForDragBound_m_per_s = 10.0;
+/// Modes sampled along t in (0, 1] when searching an explicit method's largest stable step.
+constexpr int kModeSamples = 64;
+/// Bisection on the step: relative width at which it stops.
+constexpr double kBisectionRelativeWidth = 1e-6;
+/// Steps below this fraction of 1/omega count as "no stable step" (forward Euler without damping).
+constexpr double kSmallestStepFraction = 1e-9;
+
+using Complex = std::complex<double>;
+
+/// The stability polynomial of an explicit Runge-Kutta method (forward Euler, midpoint, RK4) at z = h s.
+Complex stabilityPolynomial(IntegratorKind kind, Complex z) {
+  switch (kind) {
+    case IntegratorKind::kForwardEuler:
+      return 1.0 + z;
+    case IntegratorKind::kMidpoint:
+      return 1.0 + z + z * z / 2.0;
+    default:
+      return 1.0 + z + z * z / 2.0 + z * z * z / 6.0 + z * z * z * z / 24.0;
+  }
+}
+
+/// True when one damped mode x'' = -kappa x - gamma x' is stable at step h under the method.
+bool modeIsStable(IntegratorKind kind, double kappa, double gamma, double step_s) {
+  if (kind == IntegratorKind::kSymplecticEuler) {
+    // Its update matrix [[1 - h^2 kappa, h (1 - h gamma)], [-h kappa, 1 - h gamma]] has trace
+    // 2 - h^2 kappa - h gamma and determinant 1 - h gamma; Jury: |det| < 1 and |trace| < 1 + det.
+    const double h_gamma = step_s * gamma;
+    return h_gamma < 2.0 && step_s * step_s * kappa + 2.0 * h_gamma < 4.0;
+  }
+  // Roots of s^2 + gamma s + kappa = 0, the mode's eigenvalues.
+  const Complex root = std::sqrt(Complex(gamma * gamma - 4.0 * kappa, 0.0));
+  for (const Complex s : {(-gamma + root) / 2.0, (-gamma - root) / 2.0}) {
+    if (std::abs(stabilityPolynomial(kind, step_s * s)) > 1.0) return false;
+  }
+  return true;
+}
+
+/// Largest h in [lower, upper] with the mode stable at h, assuming it is stable at lower and not at upper.
+double bisectStep(IntegratorKind kind, double kappa, double gamma, double lower_s, double upper_s) {
+  while (upper_s - lower_s > kBisectionRelativeWidth * upper_s) {
+    const double middle_s = 0.5 * (lower_s + upper_s);
+    (modeIsStable(kind, kappa, gamma, middle_s) ? lower_s : upper_s) = middle_s;
+  }
+  return lower_s;
+}
+
+}  // namespace
+
+StiffnessBound estimateStiffnessBound(const SceneOptions& options, const ClothGrid& grid,
+                                      const Eigen::VectorXd& mass_kg, const ClothInputs& inputs) {
+  const int count = grid.particleCount();
+  // Per particle: the sum over its springs of k (and of the damping c).
+  Eigen::VectorXd stiffness_sum(count), damping_sum(count);
+  stiffness_sum.setZero();
+  damping_sum.setZero();
+  for (int k = 0; k < kSpringKindCount; ++k) {
+    const SpringOptions& spring = options.springs[k];
+    if (!spring.enabled) continue;
+    const SpringSet& springs = grid.springs[k];
+    for (std::size_t s = 0; s < springs.first.size(); ++s) {
+      for (const int particle : {springs.first[s], springs.second[s]}) {
+        stiffness_sum[particle] += spring.stiffness_N_per_m;
+        damping_sum[particle] += spring.damping_N_s_per_m;
+      }
+    }
+  }
+  // Gershgorin: diagonal block plus off-diagonal blocks, each at most the spring's k.
+  stiffness_sum *= 2.0;
+  damping_sum *= 2.0;
+  for (const Grasp& grasp : inputs.grasps) {  // a grasp is a spring to a fixed target: diagonal only
+    stiffness_sum[grasp.particle] += grasp.stiffness_N_per_m;
+    damping_sum[grasp.particle] += grasp.damping_N_s_per_m;
+  }
+  double kappa_max = 0.0;
+  double gamma_max = 0.0;
+  double smallest_mass_kg = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < count; ++i) {
+    kappa_max = std::max(kappa_max, stiffness_sum[i] / mass_kg[i]);
+    gamma_max = std::max(gamma_max, damping_sum[i] / mass_kg[i]);
+    smallest_mass_kg = std::min(smallest_mass_kg, mass_kg[i]);
+  }
+  double uniform_damping_N_s_per_m = options.air_damping_N_s_per_m;
+  if (options.wind_enabled && options.wind.model == WindModel::kAerodynamic) {
+    const double cell_area_m2 = options.width_m / (options.cols - 1) * options.height_m / (options.rows - 1);
+    const double speed_m_per_s = inputs.wind_m_per_s.norm() * (1.0 + std::abs(options.wind.gust_amplitude)) +
+                                 kClothSpeedForDragBound_m_per_s;
+    // d/dv of (rho C_d / 2) A |u_n| u_n is rho C_d A |u_n|; triangles are half a cell.
+    uniform_damping_N_s_per_m += kTrianglesPerParticle * options.wind.air_density_kg_per_m3 *
+                                 options.wind.drag_coefficient * 0.5 * cell_area_m2 * speed_m_per_s;
+  }
+  StiffnessBound bound;
+  bound.omega_max_rad_per_s = std::sqrt(kappa_max);
+  bound.damping_max_per_s = gamma_max;
+  bound.uniform_damping_per_s = uniform_damping_N_s_per_m / smallest_mass_kg;
+  return bound;
+}
+
+double stableStepLimit_s(IntegratorKind kind, const StiffnessBound& bound) {
+  if (kind == IntegratorKind::kImplicitEuler) return std::numeric_limits<double>::infinity();
+  const double kappa_max = bound.omega_max_rad_per_s * bound.omega_max_rad_per_s;
+  // The fastest rate of the system sets the scale of the search.
+  const double rate_per_s = std::max({bound.omega_max_rad_per_s, bound.damping_max_per_s + bound.uniform_damping_per_s,
+                                      std::numeric_limits<double>::min()});
+  double limit_s = std::numeric_limits<double>::infinity();
+  for (int sample = 1; sample <= kModeSamples; ++sample) {
+    const double t = static_cast<double>(sample) / kModeSamples;
+    const double kappa = t * kappa_max;
+    const double gamma = t * bound.damping_max_per_s + bound.uniform_damping_per_s;
+    const double smallest_s = kSmallestStepFraction / rate_per_s;
+    // Forward Euler's and midpoint's stability regions touch the imaginary axis only at 0: an undamped
+    // oscillation grows at every step (by 1 + O(h^2) and 1 + O(h^4), below rounding for tiny h).
+    const bool touches_axis_only_at_zero =
+        kind == IntegratorKind::kForwardEuler || kind == IntegratorKind::kMidpoint;
+    if ((touches_axis_only_at_zero && gamma <= 0.0 && kappa > 0.0) || !modeIsStable(kind, kappa, gamma, smallest_s)) {
+      return 0.0;
+    }
+    const double upper_s = 4.0 / rate_per_s;  // past every method's limit for the fastest rate
+    if (modeIsStable(kind, kappa, gamma, upper_s)) continue;  // a slow mode: not the binding one
+    limit_s = std::min(limit_s, bisectStep(kind, kappa, gamma, smallest_s, upper_s));
+  }
+  return limit_s;
+}
+
+std::string StabilityGuard::check(const ClothState& state, double energy_after_J, double strain_after,
+                                  const FrameEnvelope& envelope) const {
+  std::ostringstream problem;
+  if (!isFiniteAndBounded(state, kDivergenceBound_m)) {
+    problem << "diverged (a value is not finite or left the " << kDivergenceBound_m << " m box)";
+  } else if (!(energy_after_J - envelope.energy_before_J <= envelope.energy_allowance_J)) {
+    problem << "gained " << energy_after_J - envelope.energy_before_J << " J in a frame, more than the "
+            << envelope.energy_allowance_J << " J its inputs can add";
+  } else if (!(strain_after <= kStrainJump + kStrainGrowthFactor * envelope.strain_before + envelope.strain_allowance)) {
+    problem << "strain jumped from " << envelope.strain_before << " to " << strain_after
+            << " in a frame, beyond what the scene's forces can stretch it";
+  }
+  return problem.str();
+}
+
+}  // namespace cloth_sim::core

@@ -1,0 +1,447 @@
+#include "cloth_sim/io/state_file.h"
+
+#include "cloth_sim/io/scene_file.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <array>
+#include <atomic>
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <type_traits>
+#include <fcntl.h>
+#include <unistd.h>
+
+namespace cloth_sim::core {
+
+namespace {
+
+namespace fs = std::filesystem;
+using F = StateFileFormat;
+
+/// Section tags, in the order they are written. Version 1 has exactly these three.
+constexpr char kOptionsTag[4] = {'O', 'P', 'T', 'S'};  ///< the options as scene YAML (sceneYaml)
+constexpr char kStateTag[4] = {'S', 'T', 'A', 'T'};    ///< ClothState
+constexpr char kInputsTag[4] = {'I', 'N', 'P', 'T'};   ///< ClothInputs
+constexpr char kGuardTag[4] = {'G', 'A', 'R', 'D'};    ///< GuardMemory (version 2 on)
+constexpr std::size_t kSectionCount = 4;
+/// Version 1 files end after the inputs.
+constexpr std::size_t kVersion1SectionCount = 3;
+constexpr std::size_t kTagBytes = sizeof(kOptionsTag);
+/// Longest excerpt of a validation problem quoted in an error (it may hold a string from the file).
+constexpr std::size_t kMaxExcerptChars = 80;
+/// Doubles per particle in the state section: positions and velocities, 3 each.
+constexpr std::size_t kStateDoublesPerParticle = 6;
+constexpr std::size_t kMaxParticles =
+    static_cast<std::size_t>(OptionLimits::kMaxGridSide) * static_cast<std::size_t>(OptionLimits::kMaxGridSide);
+
+std::string excerpt(const std::string& text) {
+  return text.size() <= kMaxExcerptChars ? text : text.substr(0, kMaxExcerptChars) + "...";
+}
+
+// ---- Writing: native byte order (the header's mark says which) ------------------------------------
+
+class Writer {
+ public:
+  template <typename T>
+  void put(const T& value) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    bytes_.append(reinterpret_cast<const char*>(&value), sizeof(T));
+  }
+  void putBytes(const char* data, std::size_t size) { bytes_.append(data, size); }
+  void putColumns(const Eigen::Matrix3Xd& values) {
+    putBytes(reinterpret_cast<const char*>(values.data()), sizeof(double) * static_cast<std::size_t>(values.size()));
+  }
+  void putVector(const Eigen::Vector3d& v) {
+    put(v.x());
+    put(v.y());
+    put(v.z());
+  }
+  void section(const char (&tag)[kTagBytes], const std::string& payload) {
+    putBytes(tag, sizeof(tag));
+    put(static_cast<std::uint64_t>(payload.size()));
+    bytes_ += payload;
+  }
+  std::string& bytes() { return bytes_; }
+
+ private:
+  std::string bytes_;
+};
+
+std::string encodeState(const ClothState& state) {
+  Writer out;
+  out.put(static_cast<std::uint64_t>(state.particleCount()));
+  out.put(state.time_s);
+  out.put(state.frame);
+  out.putColumns(state.positions_m);
+  out.putColumns(state.velocities_m_per_s);
+  return out.bytes();
+}
+
+std::string encodeInputs(const ClothInputs& inputs) {
+  Writer out;
+  out.putVector(inputs.wind_m_per_s);
+  out.put(static_cast<std::uint64_t>(inputs.pins.size()));
+  for (const int pin : inputs.pins) out.put(static_cast<std::int32_t>(pin));
+  out.putColumns(inputs.pin_anchors_m);
+  out.putColumns(inputs.pin_travel_m);
+  out.put(static_cast<std::uint64_t>(inputs.grasps.size()));
+  for (const Grasp& grasp : inputs.grasps) {
+    out.put(grasp.id);
+    out.put(static_cast<std::int32_t>(grasp.particle));
+    out.putVector(grasp.target_m);
+    out.put(grasp.stiffness_N_per_m);
+    out.put(grasp.damping_N_s_per_m);
+    out.putVector(grasp.extra_force_N);
+  }
+  return out.bytes();
+}
+
+// ---- Reading: every read checked against what is left --------------------------------------------
+
+/// Thrown by Reader with what was wrong; becomes the error.
+struct Malformed {
+  std::string reason;
+};
+
+class Reader {
+ public:
+  Reader(const char* data, std::size_t size, std::string what) : data_(data), size_(size), what_(std::move(what)) {}
+
+  template <typename T>
+  T get() {
+    static_assert(std::is_trivially_copyable_v<T>);
+    need(sizeof(T));
+    T value;
+    std::memcpy(&value, data_ + offset_, sizeof(T));
+    offset_ += sizeof(T);
+    return value;
+  }
+  Eigen::Vector3d getVector() {
+    const double x = get<double>();
+    const double y = get<double>();
+    const double z = get<double>();
+    return Eigen::Vector3d(x, y, z);
+  }
+  /// A count of items of item_bytes each that must fit in what is left (checked before allocating).
+  std::size_t getCount(std::size_t item_bytes, std::size_t most, const char* item) {
+    const auto count = get<std::uint64_t>();
+    if (count > most || count * item_bytes > remaining()) {
+      throw Malformed{what_ + ": " + std::to_string(count) + " " + item + " do not fit (at most " +
+                      std::to_string(std::min<std::size_t>(most, remaining() / item_bytes)) + ")"};
+    }
+    return static_cast<std::size_t>(count);
+  }
+  Eigen::Matrix3Xd getColumns(std::size_t columns) {
+    need(3 * sizeof(double) * columns);
+    Eigen::Matrix3Xd values(3, static_cast<Eigen::Index>(columns));
+    std::memcpy(values.data(), data_ + offset_, 3 * sizeof(double) * columns);
+    offset_ += 3 * sizeof(double) * columns;
+    return values;
+  }
+  std::string getBytes(std::size_t size) {
+    need(size);
+    std::string bytes(data_ + offset_, size);
+    offset_ += size;
+    return bytes;
+  }
+  std::size_t remaining() const { return size_ - offset_; }
+  void expectEnd() const {
+    if (remaining() != 0) throw Malformed{what_ + ": " + std::to_string(remaining()) + " unexpected bytes at its end"};
+  }
+
+ private:
+  void need(std::size_t bytes) const {
+    if (bytes > remaining()) {
+      throw Malformed{what_ + ": ends early (" + std::to_string(remaining()) + " bytes left, " + std::to_string(bytes) +
+                      " needed)"};
+    }
+  }
+
+  const char* data_;
+  std::size_t size_;
+  std::string what_;
+  std::size_t offset_ = 0;
+};
+
+SceneOptions decodeOptions(const std::string& text) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception&) {
+    throw Malformed{"options section: not valid YAML"};
+  }
+  SceneOptions options;
+  std::vector<std::string> errors;
+  if (!applySceneYaml(root, "options section", &options, &errors)) {
+    throw Malformed{"options section: " + std::to_string(errors.size()) + " keys or values are not scene options"};
+  }
+  const std::vector<std::string> problems = validateSceneOptions(options);
+  if (!problems.empty()) throw Malformed{"options section: invalid options: " + excerpt(problems.front())};
+  return options;
+}
+
+ClothState decodeState(const std::string& bytes) {
+  Reader in(bytes.data(), bytes.size(), "state section");
+  ClothState state;
+  const std::size_t count = in.getCount(kStateDoublesPerParticle * sizeof(double), kMaxParticles, "particles");
+  state.time_s = in.get<double>();
+  state.frame = in.get<std::uint64_t>();
+  if (count * kStateDoublesPerParticle * sizeof(double) != in.remaining()) {
+    throw Malformed{"state section: " + std::to_string(in.remaining()) + " bytes of arrays for " +
+                    std::to_string(count) + " particles"};
+  }
+  state.positions_m = in.getColumns(count);
+  state.velocities_m_per_s = in.getColumns(count);
+  in.expectEnd();
+  return state;
+}
+
+ClothInputs decodeInputs(const std::string& bytes) {
+  Reader in(bytes.data(), bytes.size(), "inputs section");
+  ClothInputs inputs;
+  inputs.wind_m_per_s = in.getVector();
+  constexpr std::size_t kPinBytes = sizeof(std::int32_t) + 2 * 3 * sizeof(double);
+  const std::size_t pins = in.getCount(kPinBytes, kMaxParticles, "pins");
+  for (std::size_t p = 0; p < pins; ++p) inputs.pins.push_back(in.get<std::int32_t>());
+  inputs.pin_anchors_m = in.getColumns(pins);
+  inputs.pin_travel_m = in.getColumns(pins);
+  constexpr std::size_t kGraspBytes = sizeof(std::uint32_t) + sizeof(std::int32_t) + 8 * sizeof(double);
+  // More than the simulation allows still parses here; Simulation::restore names the limit.
+  constexpr std::size_t kMostGraspsParsed = 1024;
+  const std::size_t grasps = in.getCount(kGraspBytes, kMostGraspsParsed, "grasps");
+  for (std::size_t g = 0; g < grasps; ++g) {
+    Grasp grasp;
+    grasp.id = in.get<std::uint32_t>();
+    grasp.particle = in.get<std::int32_t>();
+    grasp.target_m = in.getVector();
+    grasp.stiffness_N_per_m = in.get<double>();
+    grasp.damping_N_s_per_m = in.get<double>();
+    grasp.extra_force_N = in.getVector();
+    inputs.grasps.push_back(grasp);
+  }
+  in.expectEnd();
+  return inputs;
+}
+
+std::string encodeGuard(const GuardMemory& guard) {
+  Writer out;
+  out.put(static_cast<std::int32_t>(guard.auto_scale));
+  out.put(static_cast<std::int32_t>(guard.consecutive_rollbacks));
+  return out.bytes();
+}
+
+GuardMemory decodeGuard(const std::string& bytes) {
+  Reader in(bytes.data(), bytes.size(), "guard section");
+  GuardMemory guard;
+  guard.auto_scale = in.get<std::int32_t>();
+  guard.consecutive_rollbacks = in.get<std::int32_t>();
+  in.expectEnd();
+  return guard;
+}
+
+std::uint32_t byteSwapped(std::uint32_t value) {
+  return ((value & 0xffu) << 24) | ((value & 0xff00u) << 8) | ((value >> 8) & 0xff00u) | (value >> 24);
+}
+
+std::string systemError() { return std::strerror(errno); }
+
+}  // namespace
+
+std::uint32_t crc32(const void* data, std::size_t size) {
+  static const std::array<std::uint32_t, 256> table = [] {
+    constexpr std::uint32_t kReflectedPolynomial = 0xEDB88320u;
+    std::array<std::uint32_t, 256> t{};
+    for (std::uint32_t i = 0; i < t.size(); ++i) {
+      std::uint32_t c = i;
+      for (int bit = 0; bit < 8; ++bit) c = (c & 1u) ? kReflectedPolynomial ^ (c >> 1) : c >> 1;
+      t[i] = c;
+    }
+    return t;
+  }();
+  const auto* bytes = static_cast<const unsigned char*>(data);
+  std::uint32_t crc = 0xFFFFFFFFu;
+  for (std::size_t i = 0; i < size; ++i) crc = table[(crc ^ bytes[i]) & 0xffu] ^ (crc >> 8);
+  return crc ^ 0xFFFFFFFFu;
+}
+
+std::string encodeStateFile(const SimulationSnapshot& snapshot) {
+  Writer payload;
+  payload.section(kOptionsTag, sceneYaml(snapshot.options));
+  payload.section(kStateTag, encodeState(snapshot.state));
+  payload.section(kInputsTag, encodeInputs(snapshot.inputs));
+  payload.section(kGuardTag, encodeGuard(snapshot.guard));
+  Writer file;
+  file.putBytes(F::kMagic, sizeof(F::kMagic));
+  file.put(F::kByteOrderMark);
+  file.put(F::kVersion);
+  file.put(static_cast<std::uint64_t>(payload.bytes().size()));
+  file.put(crc32(payload.bytes().data(), payload.bytes().size()));
+  file.put(std::uint32_t{0});  // reserved, 0 in version 1
+  static_assert(sizeof(F::kMagic) + 4 + 4 + 8 + 4 + 4 == F::kHeaderBytes, "the header's fields fill kHeaderBytes");
+  file.bytes() += payload.bytes();
+  return std::move(file.bytes());
+}
+
+bool decodeStateFile(const std::string& bytes, SimulationSnapshot* snapshot, std::string* error) {
+  try {
+    if (bytes.size() < F::kHeaderBytes) {
+      throw Malformed{"truncated: " + std::to_string(bytes.size()) + " bytes, shorter than the " +
+                      std::to_string(F::kHeaderBytes) + "-byte header"};
+    }
+    if (std::memcmp(bytes.data(), F::kMagic, sizeof(F::kMagic)) != 0) {
+      throw Malformed{"not a cloth_sim state file (its first 8 bytes are not CLOTHSAV)"};
+    }
+    Reader header(bytes.data() + sizeof(F::kMagic), F::kHeaderBytes - sizeof(F::kMagic), "header");
+    const auto mark = header.get<std::uint32_t>();
+    if (mark != F::kByteOrderMark) {
+      throw Malformed{mark == byteSwapped(F::kByteOrderMark)
+                          ? "written on a machine of the other byte order; this build reads only its own"
+                          : "corrupted header (bad byte-order mark)"};
+    }
+    const auto version = header.get<std::uint32_t>();
+    if (version < 1 || version > F::kVersion) {
+      throw Malformed{"version " + std::to_string(version) + " is not supported (this build reads versions 1 to " +
+                      std::to_string(F::kVersion) + ")"};
+    }
+    const auto payload_bytes = header.get<std::uint64_t>();
+    const auto checksum = header.get<std::uint32_t>();
+    const std::size_t held = bytes.size() - F::kHeaderBytes;
+    if (payload_bytes > held) {
+      throw Malformed{"truncated: the header announces " + std::to_string(payload_bytes) + " bytes of payload, the file holds " +
+                      std::to_string(held)};
+    }
+    if (payload_bytes < held) {
+      throw Malformed{"corrupted: " + std::to_string(held - payload_bytes) + " bytes after the announced payload"};
+    }
+    const char* payload = bytes.data() + F::kHeaderBytes;
+    if (crc32(payload, held) != checksum) throw Malformed{"corrupted: the payload's CRC-32 does not match the header's"};
+
+    Reader sections(payload, held, "payload");
+    std::array<std::string, kSectionCount> parts;
+    const std::array<const char*, kSectionCount> tags{kOptionsTag, kStateTag, kInputsTag, kGuardTag};
+    const std::size_t section_count = version == 1 ? kVersion1SectionCount : kSectionCount;
+    for (std::size_t s = 0; s < section_count; ++s) {
+      const std::string expected(tags[s], kTagBytes);
+      if (sections.getBytes(kTagBytes) != expected) {
+        throw Malformed{"corrupted: section " + std::to_string(s + 1) + " is not the expected " + expected};
+      }
+      const auto length = sections.get<std::uint64_t>();
+      if (length > sections.remaining()) throw Malformed{"corrupted: section " + expected + " is longer than the payload"};
+      parts[s] = sections.getBytes(static_cast<std::size_t>(length));
+    }
+    sections.expectEnd();
+
+    SimulationSnapshot read;
+    read.options = decodeOptions(parts[0]);
+    read.state = decodeState(parts[1]);
+    read.inputs = decodeInputs(parts[2]);
+    if (section_count > kVersion1SectionCount) read.guard = decodeGuard(parts[3]);
+    const int particles = read.options.rows * read.options.cols;
+    if (read.state.particleCount() != particles) {
+      throw Malformed{"state section: " + std::to_string(read.state.particleCount()) + " particles for a " +
+                      std::to_string(read.options.rows) + "x" + std::to_string(read.options.cols) + " grid"};
+    }
+    *snapshot = std::move(read);
+    return true;
+  } catch (const Malformed& malformed) {
+    *error = malformed.reason;
+    return false;
+  }
+}
+
+bool writeStateFile(const std::string& path, const SimulationSnapshot& snapshot, std::string* error) {
+  if (path.empty()) {
+    *error = "no path given";
+    return false;
+  }
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) {
+    *error = path + " is a directory";
+    return false;
+  }
+  // Any ROS peer may ask for a save: replace only state files, so a mistyped or hostile path cannot
+  // destroy another file the node can write.
+  if (fs::exists(fs::symlink_status(path, ec))) {
+    char magic[sizeof(F::kMagic)] = {};
+    std::ifstream existing(path, std::ios::binary);
+    if (!fs::is_regular_file(fs::symlink_status(path, ec)) || !existing.read(magic, sizeof(magic)) ||
+        std::memcmp(magic, F::kMagic, sizeof(magic)) != 0) {
+      *error = path + " exists and is not a cloth_sim state file: not replaced";
+      return false;
+    }
+  }
+  const std::string bytes = encodeStateFile(snapshot);
+  // A temporary file next to the target, renamed over it once complete: rename within one file system
+  // is atomic, so readers see the old file or the new one, never a half-written one.
+  // Named for this process and call; O_EXCL refuses a name that exists. Mode 0666 less the umask, as
+  // any file the user writes.
+  static std::atomic<unsigned> saves{0};
+  const std::string temporary = path + ".tmp-" + std::to_string(::getpid()) + "-" + std::to_string(saves++);
+  constexpr mode_t kFileMode = 0666;
+  const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, kFileMode);
+  if (fd < 0) {
+    *error = "cannot create a file next to " + path + ": " + systemError();
+    return false;
+  }
+  std::size_t written = 0;
+  while (written < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + written, bytes.size() - written);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    written += static_cast<std::size_t>(n);
+  }
+  std::string failure;
+  if (written != bytes.size()) failure = "cannot write " + path + ": " + systemError();
+  if (failure.empty() && ::fsync(fd) != 0) failure = "cannot flush " + path + ": " + systemError();
+  if (::close(fd) != 0 && failure.empty()) failure = "cannot close " + path + ": " + systemError();
+  if (failure.empty() && std::rename(temporary.c_str(), path.c_str()) != 0) {
+    failure = "cannot rename the written file to " + path + ": " + systemError();
+  }
+  if (!failure.empty()) {
+    std::remove(temporary.c_str());
+    *error = failure;
+    return false;
+  }
+  return true;
+}
+
+bool readStateFile(const std::string& path, SimulationSnapshot* snapshot, std::string* error) {
+  std::error_code ec;
+  if (path.empty()) {
+    *error = "no path given";
+    return false;
+  }
+  if (!fs::is_regular_file(path, ec)) {
+    *error = path + ": no such file (or not a regular file)";
+    return false;
+  }
+  const std::uintmax_t size = fs::file_size(path, ec);
+  if (ec) {
+    *error = path + ": cannot read its size: " + ec.message();
+    return false;
+  }
+  if (size > F::kMaxFileBytes) {
+    *error = path + ": " + std::to_string(size) + " bytes, more than a state file of the largest grid can hold (" +
+             std::to_string(F::kMaxFileBytes) + ")";
+    return false;
+  }
+  std::ifstream file(path, std::ios::binary);
+  std::string bytes(static_cast<std::size_t>(size), '\0');
+  if (!file || !file.read(bytes.data(), static_cast<std::streamsize>(bytes.size()))) {
+    *error = path + ": cannot read it";
+    return false;
+  }
+  std::string reason;
+  if (!decodeStateFile(bytes, snapshot, &reason)) {
+    *error = path + ": " + reason;
+    return false;
+  }
+  return true;
+}
+
+}  // namespace cloth_sim::core
