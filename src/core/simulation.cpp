@@ -224,6 +224,7 @@ FrameReport Simulation::advanceFrame() {
   const FrameEnvelope envelope = frameEnvelope();
   bool accepted = computeFrame(envelope, first_substeps, &report);
   report.recomputed = accepted && report.substeps_used != first_substeps;
+  last_substeps_ = report.substeps_used;
   if (accepted) {
     rememberFrame(report, first_substeps);
     memory_.consecutive_rollbacks = 0;

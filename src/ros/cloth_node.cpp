@@ -260,7 +260,14 @@ bool ClothNode::advanceFrames(int frames) {
     last_report_ = simulation_->advanceFrame();
     step_cost_ms_ =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() * kMillisecondsPerSecond;
-    if (!last_report_.reason.empty()) ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: %s", last_report_.reason.c_str());
+    if (!last_report_.recovery.empty()) {
+      // Not throttled: it happens once per failing setting, and the user must see what was changed.
+      ROS_ERROR("cloth_node: recovered by itself: %s", last_report_.recovery.c_str());
+      recovery_ = last_report_.recovery;
+      pushConfig();  // the integrator and substeps may have changed: the sliders show what runs
+    } else if (!last_report_.reason.empty()) {
+      ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: %s", last_report_.reason.c_str());
+    }
     if (!last_report_.stable) {
       ++unstable_frames_;
       return false;  // the same frame would diverge again right away: leave it to the next tick
@@ -653,7 +660,9 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   const double real_time_factor = window_wall_s > 0.0 ? window_sim_s_ / window_wall_s : 0.0;
   const core::EnergyReport energy = simulation_->energies();
   std::string problem;
-  if (unstable_frames_ > 0) {
+  if (!recovery_.empty()) {
+    problem = "recovered by itself: " + recovery_;
+  } else if (unstable_frames_ > 0) {
     problem = std::to_string(unstable_frames_) + " frames diverged and were rolled back: " + last_report_.reason;
   } else if (!last_report_.reason.empty()) {
     problem = last_report_.reason;
@@ -662,6 +671,8 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   }
   if (problem.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::OK, paused_ ? "paused" : "running");
+  } else if (!recovery_.empty()) {
+    status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, problem);
   } else {
     status.summary(diagnostic_msgs::DiagnosticStatus::WARN, problem);
   }
@@ -675,7 +686,14 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   addFiniteValue(status, "potential energy [J]", energy.potential_J, &non_finite);
   addFiniteValue(status, "max strain", simulation_->maxStructuralStrain(), &non_finite);
   status.add("integrator", core::integratorName(simulation_->options().integrator));
-  status.add("substeps", simulation_->options().substeps);
+  status.add("substeps", simulation_->options().autoSubsteps() ? std::string(core::kAutoSubstepsName)
+                                                                : std::to_string(simulation_->options().substeps));
+  status.add("substeps used", last_report_.substeps_used);
+  // The first computation's step over the integrator's largest stable step (0 for implicit Euler): above
+  // 1 a fixed substep count is past the stability limit, near 1 it is close to it.
+  status.add("stability margin", last_report_.stability_margin);
+  status.add("largest stable step [s]", std::isinf(last_report_.stable_step_s) ? std::string("unlimited")
+                                                                              : std::to_string(last_report_.stable_step_s));
   // implicit_euler's linear solve in the last frame: iterations per step, and whether it met its tolerance.
   const int steps = std::max(last_report_.substeps_used, 1);
   status.add("solver iterations per step", static_cast<double>(last_report_.steps.solver_iterations) / steps);
@@ -685,6 +703,7 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
     status.mergeSummary(diagnostic_msgs::DiagnosticStatus::ERROR, "not finite: " + join(non_finite, ", "));
   }
   unstable_frames_ = 0;
+  recovery_.clear();
   dropped_frames_ = 0;
   window_sim_s_ = 0.0;
   window_start_ = now;
@@ -725,6 +744,7 @@ bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::L
     return refuse("its texture does not load");
   }
   if (!simulation_->restore(snapshot, &error)) return refuse(error);
+  cancelStep("~load_state replaced the state");
   if (new_texture) simulation_->setVertexColors(colors);
   timer_.setPeriod(ros::Duration(simulation_->options().frameDuration_s()));
   last_report_ = core::FrameReport();

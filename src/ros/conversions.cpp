@@ -174,7 +174,7 @@ cloth_sim::ClothState toStateMessage(const core::Simulation& simulation, const s
   message.sim_time = state.time_s;
   message.frame = state.frame;
   message.integrator = core::integratorName(simulation.options().integrator);
-  message.substeps = simulation.options().substeps;
+  message.substeps = simulation.lastFrameSubsteps();
   const core::EnergyReport energy = simulation.energies();
   message.kinetic_energy = energy.kinetic_J;
   message.potential_energy = energy.potential_J;

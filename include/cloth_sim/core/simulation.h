@@ -134,6 +134,9 @@ class Simulation {
   /// constant force), J: what the guard holds a frame's energy budget against.
   double totalEnergy_J() const;
   double maxStructuralStrain() const;
+  /// Substeps the last frame was computed with (with `auto`, what the guard chose; before the first
+  /// frame, what the first would take).
+  int lastFrameSubsteps() const { return last_substeps_; }
   /// What `auto` remembers between frames (part of a snapshot: a restored run chooses the same substeps).
   const GuardMemory& guardMemory() const { return memory_; }
 
@@ -174,6 +177,7 @@ class Simulation {
   GuardMemory memory_;
   StiffnessBound bound_;     ///< of options_, masses and grasps; recomputed when bound_stale_
   bool bound_stale_ = true;
+  int last_substeps_ = 1;
   ClothState state_;
   ClothState frame_start_;               ///< rollback point, scratch
   Eigen::Matrix3Xd substep_start_positions_m_;  ///< scratch for the contact sweep

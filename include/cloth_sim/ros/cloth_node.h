@@ -187,6 +187,8 @@ class ClothNode {
   core::FrameReport last_report_;
   double step_cost_ms_ = 0.0;  ///< wall time of the last frame, ms
   int unstable_frames_ = 0;
+  /// What the simulation did to recover from repeated rollbacks in this diagnostics window (empty: none).
+  std::string recovery_;
   std::uint64_t dropped_frames_ = 0;
   double window_sim_s_ = 0.0;
   std::chrono::steady_clock::time_point window_start_;
