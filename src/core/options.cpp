@@ -1,5 +1,7 @@
 #include "cloth_sim/core/options.h"
 
+#include "cloth_sim/core/constants.h"
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -10,6 +12,10 @@ namespace {
 
 /// How far from unit length an axis or normal may be, and how far from orthogonal two axes may be.
 constexpr double kUnitTolerance = 1e-6;
+/// Peak rate of the smoothstep 3u^2 - 2u^3 that carries pins to their hooks, per unit of u.
+constexpr double kSmoothstepPeakRate = 1.5;
+/// Most characters of a pin selector quoted in an error (it may come from any file given to ~load_scene).
+constexpr std::size_t kMaxQuotedSelectorChars = 32;
 
 class Problems {
  public:
@@ -42,6 +48,14 @@ class Problems {
     list_.push_back(out.str());
   }
 
+  /// A peak speed (m/s) computed from several fields, named together.
+  void speedAtMost(const std::string& fields, double speed_m_per_s, double high) {
+    if (std::isfinite(speed_m_per_s) && speed_m_per_s <= high) return;
+    std::ostringstream out;
+    out << fields << ": peak speed " << speed_m_per_s << " m/s: must be at most " << high << " m/s";
+    list_.push_back(out.str());
+  }
+
   void fail(const std::string& message) { list_.push_back(message); }
   std::vector<std::string> take() { return std::move(list_); }
 
@@ -51,6 +65,27 @@ class Problems {
 
 std::string indexed(const std::string& list, std::size_t index, const std::string& field) {
   return list + "[" + std::to_string(index) + "]." + field;
+}
+
+/// Peak speed of A sin(2 pi t / T), m/s; 0 for a zero amplitude whatever the period.
+double swingSpeed_m_per_s(const Eigen::Vector3d& amplitude_m, double period_s) {
+  const double amplitude = amplitude_m.norm();
+  return amplitude == 0.0 ? 0.0 : amplitude * kTwoPi / period_s;
+}
+
+/// Peak speed of the pins' travel to pin_positions, m/s: the longest trip at the smoothstep's peak rate.
+double pinTravelSpeed_m_per_s(const SceneOptions& o, const std::vector<int>& pinned) {
+  if (o.pin_travel_time_s <= 0.0 || o.pin_positions_m.size() != pinned.size()) return 0.0;
+  const double du_m = o.width_m / (o.cols - 1);
+  const double dv_m = o.height_m / (o.rows - 1);
+  double longest_m = 0.0;
+  for (std::size_t p = 0; p < pinned.size(); ++p) {
+    const int row = pinned[p] / o.cols;
+    const int col = pinned[p] % o.cols;
+    const Eigen::Vector3d start_m = o.origin_m + col * du_m * o.u_axis + row * dv_m * o.v_axis;
+    longest_m = std::max(longest_m, (o.pin_positions_m[p] - start_m).norm());
+  }
+  return kSmoothstepPeakRate * longest_m / o.pin_travel_time_s;
 }
 
 }  // namespace
@@ -78,6 +113,12 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   }
   problems.inRange("air_damping", o.air_damping_N_s_per_m, 0.0, L::kMaxDampingN_s_per_m);
   problems.finiteVector("wind", o.wind.velocity_m_per_s, L::kMaxWindSpeed_m_per_s);
+  if (o.wind.velocity_m_per_s.allFinite() && o.wind.velocity_m_per_s.norm() > L::kMaxWindSpeed_m_per_s) {
+    std::ostringstream out;
+    out << "wind = [" << o.wind.velocity_m_per_s.transpose() << "]: its magnitude " << o.wind.velocity_m_per_s.norm()
+        << " m/s must be at most " << L::kMaxWindSpeed_m_per_s << " m/s";
+    problems.fail(out.str());
+  }
   problems.inRange("wind_coefficient", o.wind.paper_coefficient_N_s_per_m, 0.0, L::kMaxWindCoefficient);
   problems.inRange("air_density", o.wind.air_density_kg_per_m3, 0.0, L::kMaxAirDensity_kg_per_m3);
   problems.inRange("drag_coefficient", o.wind.drag_coefficient, 0.0, L::kMaxWindCoefficient);
@@ -97,6 +138,17 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
     problems.finiteVector("pin_positions[" + std::to_string(i) + "]", o.pin_positions_m[i], L::kMaxCoordinate_m);
   }
   problems.positive("pin_motion_period", o.pin_motion_period_s, L::kMaxPeriod_s);
+  if (std::isfinite(o.pin_motion_period_s) && o.pin_motion_period_s > 0.0 && o.pin_motion_amplitude_m.allFinite()) {
+    problems.speedAtMost("pin_motion_amplitude and pin_motion_period (|A| 2 pi / T)",
+                         swingSpeed_m_per_s(o.pin_motion_amplitude_m, o.pin_motion_period_s), L::kMaxPinSpeed_m_per_s);
+  }
+  const bool grid_valid = o.rows >= L::kMinGridSide && o.cols >= L::kMinGridSide && std::isfinite(o.width_m) &&
+                          std::isfinite(o.height_m) && o.origin_m.allFinite() && o.u_axis.allFinite() &&
+                          o.v_axis.allFinite();
+  if (grid_valid && pin_error.empty() && std::isfinite(o.pin_travel_time_s) && o.pin_travel_time_s > 0.0) {
+    problems.speedAtMost("pin_positions and pin_travel_time (1.5 x longest trip / time)",
+                         pinTravelSpeed_m_per_s(o, pinned), L::kMaxPinSpeed_m_per_s);
+  }
 
   for (std::size_t i = 0; i < o.colliders.planes.size(); ++i) {
     problems.unitVector(indexed("planes", i, "normal"), o.colliders.planes[i].normal);
@@ -110,6 +162,12 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
     problems.finiteVector(indexed("spheres", i, "velocity"), s.velocity_m_per_s, L::kMaxColliderSpeed_m_per_s);
     problems.finiteVector(indexed("spheres", i, "amplitude"), s.oscillation_amplitude_m, L::kMaxCoordinate_m);
     problems.positive(indexed("spheres", i, "period"), s.oscillation_period_s, L::kMaxPeriod_s);
+    if (std::isfinite(s.oscillation_period_s) && s.oscillation_period_s > 0.0 && s.oscillation_amplitude_m.allFinite() &&
+        s.velocity_m_per_s.allFinite()) {
+      problems.speedAtMost(indexed("spheres", i, "velocity, amplitude and period (|v| + |A| 2 pi / T)"),
+                           s.velocity_m_per_s.norm() + swingSpeed_m_per_s(s.oscillation_amplitude_m, s.oscillation_period_s),
+                           L::kMaxColliderSpeed_m_per_s);
+    }
   }
   for (std::size_t i = 0; i < o.colliders.boxes.size(); ++i) {
     const BoxCollider& b = o.colliders.boxes[i];
@@ -126,7 +184,7 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   problems.inRange("solver_tolerance", o.solver.tolerance, L::kMinSolverTolerance, 1.0);
   problems.inRange("solver_max_iterations", o.solver.max_iterations, 1, L::kMaxSolverIterations);
   problems.inRange("threads", o.threads, 1, L::kMaxThreads);
-  problems.positive("frame_rate", o.frame_rate_hz, L::kMaxFrameRateHz);
+  problems.inRange("frame_rate", o.frame_rate_hz, L::kMinFrameRateHz, L::kMaxFrameRateHz);
   return problems.take();
 }
 
@@ -162,7 +220,10 @@ std::vector<int> resolvePins(const std::vector<std::string>& selectors, int rows
         used = 0;
       }
       if (used != selector.size() || selector.empty() || index < 0 || index >= static_cast<long>(rows) * cols) {
-        *error = "pins: '" + selector +
+        const std::string shown = selector.size() > kMaxQuotedSelectorChars
+                                      ? selector.substr(0, kMaxQuotedSelectorChars) + "..."
+                                      : selector;
+        *error = "pins: '" + shown +
                  "' is neither a corner/edge name (top_left, top_right, bottom_left, bottom_right, top_edge, "
                  "bottom_edge, left_edge, right_edge) nor a particle index in [0, " +
                  std::to_string(rows * cols - 1) + "]";

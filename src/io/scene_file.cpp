@@ -1,12 +1,15 @@
 #include "cloth_sim/io/scene_file.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <map>
+#include <set>
 #include <sstream>
 
 namespace cloth_sim::core {
@@ -20,16 +23,44 @@ struct WrongType {
   std::string expected;
 };
 
+/// Most characters of a file's own text that an error message quotes: enough to recognise a typo, too few
+/// to leak a file that was never a scene (any ROS peer can name any file to ~load_scene).
+constexpr std::size_t kMaxQuotedChars = 32;
+/// Most characters of a YAML parser message quoted (the parser's own words, cut all the same).
+constexpr std::size_t kMaxParserMessageChars = 80;
+
+const char* const kCoreTagPrefix = "tag:yaml.org,2002:";
+
+/// Text from a file, quoted for an error message: at most kMaxQuotedChars characters, control characters
+/// and non-ASCII bytes shown as '?', and "..." when cut.
+std::string quoted(const std::string& text) {
+  std::string shown;
+  for (std::size_t i = 0; i < text.size() && i < kMaxQuotedChars; ++i) {
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    shown += std::isprint(c) ? static_cast<char>(c) : '?';
+  }
+  return "'" + shown + (text.size() > kMaxQuotedChars ? "...'" : "'");
+}
+
 std::string describe(const YAML::Node& node) {
-  if (node.IsScalar()) return "'" + node.Scalar() + "'";
+  if (node.IsScalar()) return quoted(node.Scalar());
   if (node.IsSequence()) return "a list of " + std::to_string(node.size());
   if (node.IsMap()) return "a map";
   return "nothing";
 }
 
+/// True unless the node carries an explicit YAML core-schema tag (!!str, !!int, ...; parameters carry the
+/// one their XmlRpc type gives them) other than one of `allowed` ("int", "float", "bool", "str").
+bool tagAllows(const YAML::Node& node, std::initializer_list<const char*> allowed) {
+  const std::string& tag = node.Tag();
+  if (tag.compare(0, std::char_traits<char>::length(kCoreTagPrefix), kCoreTagPrefix) != 0) return true;
+  const std::string type = tag.substr(std::char_traits<char>::length(kCoreTagPrefix));
+  return std::any_of(allowed.begin(), allowed.end(), [&](const char* name) { return type == name; });
+}
+
 template <typename T>
-T readScalar(const YAML::Node& node, const char* expected) {
-  if (!node.IsScalar()) throw WrongType{expected};
+T readScalar(const YAML::Node& node, const char* expected, std::initializer_list<const char*> tags) {
+  if (!node.IsScalar() || !tagAllows(node, tags)) throw WrongType{expected};
   try {
     return node.as<T>();
   } catch (const YAML::Exception&) {
@@ -37,10 +68,10 @@ T readScalar(const YAML::Node& node, const char* expected) {
   }
 }
 
-double readDouble(const YAML::Node& node) { return readScalar<double>(node, "a number"); }
-int readInt(const YAML::Node& node) { return readScalar<int>(node, "an integer"); }
-bool readBool(const YAML::Node& node) { return readScalar<bool>(node, "true or false"); }
-std::string readString(const YAML::Node& node) { return readScalar<std::string>(node, "a string"); }
+double readDouble(const YAML::Node& node) { return readScalar<double>(node, "a number", {"float", "int"}); }
+int readInt(const YAML::Node& node) { return readScalar<int>(node, "an integer", {"int"}); }
+bool readBool(const YAML::Node& node) { return readScalar<bool>(node, "true or false", {"bool"}); }
+std::string readString(const YAML::Node& node) { return readScalar<std::string>(node, "a string", {"str"}); }
 
 Eigen::Vector3d readVector(const YAML::Node& node) {
   if (!node.IsSequence() || node.size() != 3) throw WrongType{"a list of 3 numbers [x, y, z]"};
@@ -50,7 +81,10 @@ Eigen::Vector3d readVector(const YAML::Node& node) {
 std::vector<std::string> readPins(const YAML::Node& node) {
   if (!node.IsSequence()) throw WrongType{"a list of corner/edge names or particle indices"};
   std::vector<std::string> pins;
-  for (const YAML::Node& item : node) pins.push_back(readString(item));
+  // A particle index may come as an integer (a parameter list [0, 19]) or as text.
+  for (const YAML::Node& item : node) {
+    pins.push_back(readScalar<std::string>(item, "a corner/edge name or a particle index", {"str", "int"}));
+  }
   return pins;
 }
 
@@ -63,14 +97,16 @@ std::vector<T> readList(const YAML::Node& node, const std::vector<std::string>& 
   for (const YAML::Node& entry : node) {
     if (!entry.IsMap()) throw WrongType{"a list of maps"};
     T item;
+    std::set<std::string> seen;
     for (const auto& field : entry) {
       if (!field.first.IsScalar()) throw WrongType{"maps whose keys are names"};
       const std::string name = field.first.Scalar();
       if (std::find(fields.begin(), fields.end(), name) == fields.end()) {
         std::string known;
         for (const std::string& f : fields) known += (known.empty() ? "" : ", ") + f;
-        throw WrongType{"maps with the keys " + known + " (got '" + name + "')"};
+        throw WrongType{"maps with the keys " + known + " (got " + quoted(name) + ")"};
       }
+      if (!seen.insert(name).second) throw WrongType{"maps with each key once ('" + name + "' twice)"};
       apply(name, field.second, item);
     }
     items.push_back(item);
@@ -208,6 +244,8 @@ bool applySceneYaml(const YAML::Node& map, const std::string& source, SceneOptio
     errors->push_back(source + ": expected a map of scene keys, got " + describe(map));
     return false;
   }
+  // yaml-cpp keeps both entries of a repeated key; the later one would silently win.
+  std::set<std::string> seen;
   for (const auto& entry : map) {
     if (!entry.first.IsScalar()) {
       errors->push_back(source + ": a key is " + describe(entry.first) + ": keys must be names");
@@ -216,7 +254,11 @@ bool applySceneYaml(const YAML::Node& map, const std::string& source, SceneOptio
     const std::string key = entry.first.Scalar();
     const auto setter = setters().find(key);
     if (setter == setters().end()) {
-      errors->push_back(source + ": unknown key '" + key + "'");
+      errors->push_back(source + ": unknown key " + quoted(key));
+      continue;
+    }
+    if (!seen.insert(key).second) {
+      errors->push_back(source + ": duplicate key '" + key + "': each key may appear once");
       continue;
     }
     try {
@@ -229,6 +271,7 @@ bool applySceneYaml(const YAML::Node& map, const std::string& source, SceneOptio
 }
 
 std::string resolveScenePath(const std::string& name_or_path, const std::string& scenes_dir) {
+  if (name_or_path.empty()) return name_or_path;
   const fs::path given(name_or_path);
   const std::string extension = given.extension().string();
   if (name_or_path.find('/') != std::string::npos || extension == ".yaml" || extension == ".yml") {
@@ -247,24 +290,107 @@ std::vector<std::string> builtinSceneNames(const std::string& scenes_dir) {
   return names;
 }
 
-bool loadSceneFile(const std::string& path, SceneOptions* options, std::vector<std::string>* errors) {
-  const std::string source = "scene file " + path;
+namespace {
+
+bool hasSceneExtension(const fs::path& path) {
+  const std::string extension = path.extension().string();
+  return extension == ".yaml" || extension == ".yml";
+}
+
+/// The file's text, or false with the reason: only a regular file of at most `max_bytes`, checked before
+/// a byte is read (a FIFO would block, a device or a huge file would never end), and again while
+/// reading (a file that grew, a /proc file that stat calls empty).
+bool readBoundedRegularFile(const std::string& path, std::uintmax_t max_bytes, std::string* text, std::string* error) {
   std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) {
-    errors->push_back(source + ": no such file");
+  const fs::file_status status = fs::status(path, ec);
+  if (ec || !fs::exists(status)) {
+    *error = "no such file";
+    return false;
+  }
+  if (fs::is_directory(status)) {
+    *error = "is a directory, not a file";
+    return false;
+  }
+  if (!fs::is_regular_file(status)) {
+    *error = "not a regular file";
+    return false;
+  }
+  const std::string too_big = "larger than the limit of " + std::to_string(max_bytes) + " bytes";
+  const std::uintmax_t size = fs::file_size(path, ec);
+  if (ec) {
+    *error = "cannot be read";
+    return false;
+  }
+  if (size > max_bytes) {
+    *error = std::to_string(size) + " bytes: " + too_big;
+    return false;
+  }
+  std::ifstream file(path, std::ios::binary);
+  if (!file) {
+    *error = "cannot be opened";
+    return false;
+  }
+  text->assign(static_cast<std::size_t>(max_bytes) + 1, '\0');
+  file.read(&(*text)[0], static_cast<std::streamsize>(text->size()));
+  text->resize(static_cast<std::size_t>(file.gcount()));
+  if (text->size() > max_bytes) {
+    *error = too_big;
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+bool loadSceneFile(const std::string& path, SceneOptions* options, std::vector<std::string>* errors) {
+  if (path.empty()) {
+    errors->push_back("scene name is empty: give a built-in scene's name or a path to a .yaml scene file");
+    return false;
+  }
+  const std::string source = "scene file " + path;
+  if (!hasSceneExtension(path)) {
+    errors->push_back(source + ": not a scene file (scene files end in .yaml or .yml)");
+    return false;
+  }
+  std::string text;
+  std::string read_error;
+  if (!readBoundedRegularFile(path, kMaxSceneFileBytes, &text, &read_error)) {
+    errors->push_back(source + ": " + read_error);
+    return false;
+  }
+  if (text.find_first_not_of(" \t\r\n") == std::string::npos) {
+    errors->push_back(source + ": the file is empty");
     return false;
   }
   YAML::Node root;
   try {
-    root = YAML::LoadFile(path);
+    root = YAML::Load(text);
   } catch (const YAML::Exception& e) {
-    errors->push_back(source + ": not valid YAML: " + e.what());
+    // The parser's message only, cut: e.what() may grow with the text around the error.
+    errors->push_back(source + ": not valid YAML at line " + std::to_string(e.mark.line + 1) + ", column " +
+                      std::to_string(e.mark.column + 1) + ": " + e.msg.substr(0, kMaxParserMessageChars));
     return false;
   }
   SceneOptions loaded = *options;
   if (!applySceneYaml(root, source, &loaded, errors)) return false;
+  const std::string texture_as_written = loaded.texture;
   if (!loaded.texture.empty() && fs::path(loaded.texture).is_relative()) {
     loaded.texture = (fs::path(path).parent_path() / loaded.texture).string();
+  }
+  if (!loaded.texture.empty()) {
+    // Checked here, before the image reader opens it: a FIFO or a device would block it.
+    std::error_code ec;
+    const fs::file_status status = fs::status(loaded.texture, ec);
+    if (!fs::is_regular_file(status)) {
+      errors->push_back(source + ": texture " + quoted(texture_as_written) + ": not a regular file");
+      return false;
+    }
+    const std::uintmax_t size = fs::file_size(loaded.texture, ec);
+    if (ec || size > kMaxTextureFileBytes) {
+      errors->push_back(source + ": texture " + quoted(texture_as_written) + ": larger than the limit of " +
+                        std::to_string(kMaxTextureFileBytes) + " bytes");
+      return false;
+    }
   }
   const std::vector<std::string> problems = validateSceneOptions(loaded);
   for (const std::string& problem : problems) errors->push_back(source + ": " + problem);

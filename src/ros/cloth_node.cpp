@@ -49,27 +49,36 @@ ClothNode::ClothNode(const ros::NodeHandle& node_handle, const ros::NodeHandle& 
     : nh_(node_handle), pnh_(private_handle) {}
 
 bool ClothNode::start(std::string* error) {
-  pnh_.param<std::string>(Names::kFrameIdParam, frame_id_, "world");
+  // The whole private namespace, read once: each node parameter's type is checked by optionalParameter,
+  // each scene key's by the scene-file reader (buildSimulation), so no wrong type falls back silently.
+  XmlRpc::XmlRpcValue parameters;
+  if (!ros::param::get(pnh_.getNamespace(), parameters)) parameters = XmlRpc::XmlRpcValue();
+  std::string parent_frame;
+  std::string scene = kDefaultScene;
+  double mesh_rate_hz = 0.0;  // not given: the frame rate, known once the scene is built
+  if (!optionalParameter(parameters, Names::kFrameIdParam, &frame_id_, error) ||
+      !optionalParameter(parameters, Names::kParentFrameParam, &parent_frame, error) ||
+      !optionalParameter(parameters, Names::kSceneParam, &scene, error) ||
+      !optionalParameter(parameters, Names::kMeshRateParam, &mesh_rate_hz, error)) {
+    return false;
+  }
   if (frame_id_.empty() || frame_id_[0] == '/') {
     *error = "parameter ~frame_id = '" + frame_id_ + "': must be a non-empty tf frame name without a leading '/'";
     return false;
   }
-  std::string parent_frame;
-  pnh_.param<std::string>(Names::kParentFrameParam, parent_frame, "");
   if (!parent_frame.empty() && (parent_frame[0] == '/' || parent_frame == frame_id_)) {
     *error = "parameter ~parent_frame_id = '" + parent_frame +
              "': must be a tf frame name without a leading '/', other than ~frame_id";
     return false;
   }
-  std::string scene;
-  pnh_.param<std::string>(Names::kSceneParam, scene, kDefaultScene);
   scenes_dir_ = ros::package::getPath("cloth_sim") + "/config/scenes";
   std::unique_ptr<core::Simulation> simulation = buildSimulation(scene, true, error);
   if (!simulation) return false;
   simulation_ = std::move(simulation);
   // The mesh is the heavy message (each vertex six times, with colours): a viewer may want it less often.
-  double mesh_rate_hz = simulation_->options().frame_rate_hz;
-  pnh_.param<double>(Names::kMeshRateParam, mesh_rate_hz, mesh_rate_hz);
+  const bool mesh_rate_given =
+      parameters.getType() == XmlRpc::XmlRpcValue::TypeStruct && parameters.hasMember(Names::kMeshRateParam);
+  if (!mesh_rate_given) mesh_rate_hz = simulation_->options().frame_rate_hz;
   if (!std::isfinite(mesh_rate_hz) || mesh_rate_hz <= 0.0 || mesh_rate_hz > core::OptionLimits::kMaxFrameRateHz) {
     *error = "parameter ~mesh_rate = " + std::to_string(mesh_rate_hz) + ": must be in (0, " +
              std::to_string(core::OptionLimits::kMaxFrameRateHz) + "] Hz";
@@ -104,6 +113,7 @@ bool ClothNode::start(std::string* error) {
   // start-up would otherwise read them as overrides of the next scene.
   reconfigure_ = std::make_unique<dynamic_reconfigure::Server<cloth_sim::ClothConfig>>(
       reconfigure_mutex_, ros::NodeHandle(pnh_, Names::kTuningNamespace));
+  publishReconfigureRanges();
   pushConfig();  // before the callback, so its first call carries the scene's values, not the .cfg defaults
   reconfigure_->setCallback([this](cloth_sim::ClothConfig& config, std::uint32_t level) { onReconfigure(config, level); });
 
@@ -173,7 +183,13 @@ std::unique_ptr<core::Simulation> ClothNode::buildSimulation(const std::string& 
       }
     }
   }
-  auto simulation = std::make_unique<core::Simulation>(options);
+  std::unique_ptr<core::Simulation> simulation;
+  try {
+    simulation = std::make_unique<core::Simulation>(options);
+  } catch (const std::exception& e) {  // validated options do not throw; memory may still run out
+    *error = "scene '" + scene + "': cannot be built: " + e.what();
+    return nullptr;
+  }
   Eigen::Matrix3Xf colors;
   std::string texture_error;
   if (!core::sceneVertexColors(options.texture, simulation->grid().uv, &colors, &texture_error)) {
@@ -185,10 +201,13 @@ std::unique_ptr<core::Simulation> ClothNode::buildSimulation(const std::string& 
 }
 
 void ClothNode::install(std::unique_ptr<core::Simulation> simulation) {
+  // Everything that can throw comes before the swap (ros::Duration throws beyond 2^31 s; the validated
+  // frame rate keeps it far inside), so a failure leaves the running scene in place.
+  const ros::Duration frame_period(simulation->options().frameDuration_s());
   cancelStep("the scene was replaced");
   simulation_ = std::move(simulation);
   step_cost_ms_ = 0.0;  // the old scene's cost says nothing about this one's
-  timer_.setPeriod(ros::Duration(simulation_->options().frameDuration_s()));
+  timer_.setPeriod(frame_period);
   last_report_ = core::FrameReport();
   reanchor();
   pushConfig();
@@ -273,7 +292,16 @@ void ClothNode::publish(const ros::Time& stamp) {
     mesh_pub_.publish(toMeshMarker(*simulation_, frame_id_, stamp));
     last_mesh_ = stamp;
   }
-  if (state_pub_.getNumSubscribers() > 0) state_pub_.publish(toStateMessage(*simulation_, frame_id_, stamp));
+  if (state_pub_.getNumSubscribers() > 0) {
+    const cloth_sim::ClothState state = toStateMessage(*simulation_, frame_id_, stamp);
+    const std::vector<std::string> non_finite = nonFiniteFields(state);
+    if (non_finite.empty()) {
+      state_pub_.publish(state);
+    } else {
+      ROS_ERROR_THROTTLE(kWarnThrottle_s, "cloth_node: not publishing ~state: %s not finite",
+                         join(non_finite, ", ").c_str());
+    }
+  }
   if (colliders_pub_.getNumSubscribers() > 0 && !simulation_->options().colliders.empty()) {
     colliders_pub_.publish(toColliderMarkers(*simulation_, frame_id_, stamp));
   }
@@ -488,14 +516,21 @@ void ClothNode::cancelStep(const std::string& reason) {
 }
 
 bool ClothNode::onLoadScene(cloth_sim::LoadScene::Request& request, cloth_sim::LoadScene::Response& response) {
+  // All or nothing: the new scene is read, validated, built and textured completely before it replaces
+  // the running one; any failure answers with the reason and the old scene carries on.
   std::string error;
-  std::unique_ptr<core::Simulation> simulation = buildSimulation(request.scene, false, &error);
-  if (!simulation) {
+  std::unique_ptr<core::Simulation> simulation;
+  try {
+    simulation = buildSimulation(request.scene, false, &error);
+    if (simulation) install(std::move(simulation));
+  } catch (const std::exception& e) {  // nothing was swapped: install throws only before its swap
+    error = "scene '" + request.scene + "': " + e.what();
+  }
+  if (!error.empty()) {
     response.success = false;
     response.message = error + "; the current scene keeps running";
     return true;
   }
-  install(std::move(simulation));
   response.success = true;
   std::ostringstream message;
   message << "loaded scene '" << simulation_->options().name << "' (" << simulation_->grid().rows << "x"
@@ -506,6 +541,16 @@ bool ClothNode::onLoadScene(cloth_sim::LoadScene::Request& request, cloth_sim::L
 }
 
 void ClothNode::onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t) {
+  // The .cfg gives no ranges, so dynamic_reconfigure's server clamps nothing (it clamped -5 to 0 and inf
+  // to 1e4 silently, and let NaN through): every value arrives as sent and is checked here, and a
+  // refused change keeps the whole previous configuration.
+  const std::string invalid = invalidReconfigureValue(config);
+  if (!invalid.empty()) {
+    ROS_WARN("cloth_node: reconfigure refused: %s; the previous values stay", invalid.c_str());
+    fillConfig(&config);
+    reconfigure_wind_ = Eigen::Vector3d(config.wind_x, config.wind_y, config.wind_z);
+    return;
+  }
   core::SceneOptions options = simulation_->options();
   const double stiffness[core::kSpringKindCount] = {config.structural_stiffness, config.shear_stiffness,
                                               config.bend_stiffness};
@@ -526,13 +571,59 @@ void ClothNode::onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t) {
   options.solver.tolerance = config.solver_tolerance;
   options.solver.max_iterations = config.solver_max_iterations;
   if (!error.empty() || !simulation_->retune(options, &error)) {
-    ROS_WARN("cloth_node: reconfigure refused: %s", error.c_str());
+    ROS_WARN("cloth_node: reconfigure refused: %s; the previous values stay", error.c_str());
   } else if (wind != reconfigure_wind_) {
     simulation_->setWindVelocity(wind);  // the wind is an input, not an option: retune leaves it alone
   }
   // Answer and publish what is in force (a refused change is not; a ~wind is), so the sliders follow.
   fillConfig(&config);
   reconfigure_wind_ = Eigen::Vector3d(config.wind_x, config.wind_y, config.wind_z);
+}
+
+std::string ClothNode::invalidReconfigureValue(const cloth_sim::ClothConfig& config) const {
+  const std::pair<const char*, double> numbers[] = {
+      {"structural_stiffness", config.structural_stiffness}, {"structural_damping", config.structural_damping},
+      {"shear_stiffness", config.shear_stiffness},           {"shear_damping", config.shear_damping},
+      {"bend_stiffness", config.bend_stiffness},             {"bend_damping", config.bend_damping},
+      {"air_damping", config.air_damping},                   {"wind_x", config.wind_x},
+      {"wind_y", config.wind_y},                             {"wind_z", config.wind_z},
+      {"solver_tolerance", config.solver_tolerance}};
+  for (const auto& [field, value] : numbers) {
+    if (!std::isfinite(value)) return std::string(field) + " = " + std::to_string(value) + ": must be finite";
+  }
+  // The sliders are the wind's components; its magnitude is what ~wind and the scene files bound.
+  const Eigen::Vector3d wind(config.wind_x, config.wind_y, config.wind_z);
+  if (wind != reconfigure_wind_ && wind.norm() > core::OptionLimits::kMaxWindSpeed_m_per_s) {
+    std::ostringstream out;
+    out << "wind_x, wind_y, wind_z = (" << wind.x() << ", " << wind.y() << ", " << wind.z() << "): magnitude "
+        << wind.norm() << " m/s must be at most " << core::OptionLimits::kMaxWindSpeed_m_per_s << " m/s";
+    return out.str();
+  }
+  return "";
+}
+
+void ClothNode::publishReconfigureRanges() {
+  // The server clamps to the .cfg's ranges, which are left open; the ranges shown to rqt_reconfigure and
+  // the clients (parameter_descriptions) are set here from OptionLimits, the ones validation enforces.
+  using L = core::OptionLimits;
+  cloth_sim::ClothConfig low = cloth_sim::ClothConfig::__getMin__();
+  cloth_sim::ClothConfig high = cloth_sim::ClothConfig::__getMax__();
+  for (double* field : {&low.structural_stiffness, &low.shear_stiffness, &low.bend_stiffness, &low.structural_damping,
+                        &low.shear_damping, &low.bend_damping, &low.air_damping}) {
+    *field = 0.0;
+  }
+  high.structural_stiffness = high.shear_stiffness = high.bend_stiffness = L::kMaxStiffnessN_per_m;
+  high.structural_damping = high.shear_damping = high.bend_damping = high.air_damping = L::kMaxDampingN_s_per_m;
+  low.wind_x = low.wind_y = low.wind_z = -L::kMaxWindSpeed_m_per_s;
+  high.wind_x = high.wind_y = high.wind_z = L::kMaxWindSpeed_m_per_s;
+  low.substeps = core::SceneOptions::kAutoSubsteps;  // 0: auto, as the scenes use it
+  high.substeps = L::kMaxSubsteps;
+  low.solver_tolerance = L::kMinSolverTolerance;
+  high.solver_tolerance = 1.0;
+  low.solver_max_iterations = 1;
+  high.solver_max_iterations = L::kMaxSolverIterations;
+  reconfigure_->setConfigMin(low);
+  reconfigure_->setConfigMax(high);
 }
 
 void ClothNode::fillConfig(cloth_sim::ClothConfig* config) const {
@@ -587,12 +678,13 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   }
   status.add("scene", simulation_->options().name);
   status.add("frame", simulation_->state().frame);
-  status.add("sim time [s]", simulation_->state().time_s);
-  status.add("step cost [ms]", step_cost_ms_);
-  status.add("real-time factor", real_time_factor);
-  status.add("kinetic energy [J]", energy.kinetic_J);
-  status.add("potential energy [J]", energy.potential_J);
-  status.add("max strain", simulation_->maxStructuralStrain());
+  std::vector<std::string> non_finite;  // never published as numbers: rviz and monitors choke on them
+  addFiniteValue(status, "sim time [s]", simulation_->state().time_s, &non_finite);
+  addFiniteValue(status, "step cost [ms]", step_cost_ms_, &non_finite);
+  addFiniteValue(status, "real-time factor", real_time_factor, &non_finite);
+  addFiniteValue(status, "kinetic energy [J]", energy.kinetic_J, &non_finite);
+  addFiniteValue(status, "potential energy [J]", energy.potential_J, &non_finite);
+  addFiniteValue(status, "max strain", simulation_->maxStructuralStrain(), &non_finite);
   status.add("integrator", core::integratorName(simulation_->options().integrator));
   status.add("substeps", simulation_->options().autoSubsteps() ? std::string(core::kAutoSubstepsName)
                                                                 : std::to_string(simulation_->options().substeps));
@@ -607,6 +699,9 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("solver iterations per step", static_cast<double>(last_report_.steps.solver_iterations) / steps);
   status.add("solver converged", last_report_.steps.converged);
   status.add("paused", paused_);
+  if (!non_finite.empty()) {
+    status.mergeSummary(diagnostic_msgs::DiagnosticStatus::ERROR, "not finite: " + join(non_finite, ", "));
+  }
   unstable_frames_ = 0;
   recovery_.clear();
   dropped_frames_ = 0;

@@ -3,6 +3,8 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <cmath>
+#include <sstream>
 
 namespace cloth_sim {
 
@@ -206,17 +208,122 @@ core::GraspRequest toGraspRequest(const cloth_sim::Grasp& message, const Eigen::
   return request;
 }
 
+namespace {
+
+/// A YAML scalar carrying the core-schema tag of the parameter's XmlRpc type, so that the scene-file
+/// reader refuses a number where a string belongs (`_name:=42`) or a string where a number does.
+template <typename T>
+YAML::Node taggedScalar(const T& value, const char* type) {
+  YAML::Node node(value);
+  node.SetTag(std::string("tag:yaml.org,2002:") + type);
+  return node;
+}
+
+/// Most characters of a parameter's value quoted in an error.
+constexpr std::size_t kMaxQuotedValueChars = 32;
+
+std::string describeParameter(const XmlRpc::XmlRpcValue& value) {
+  XmlRpc::XmlRpcValue& v = const_cast<XmlRpc::XmlRpcValue&>(value);  // XmlRpc's accessors are not const
+  switch (v.getType()) {
+    case XmlRpc::XmlRpcValue::TypeBoolean:
+      return static_cast<bool>(v) ? "true (a bool)" : "false (a bool)";
+    case XmlRpc::XmlRpcValue::TypeInt:
+      return std::to_string(static_cast<int>(v)) + " (an integer)";
+    case XmlRpc::XmlRpcValue::TypeDouble: {
+      std::ostringstream out;
+      out << static_cast<double>(v) << " (a number)";
+      return out.str();
+    }
+    case XmlRpc::XmlRpcValue::TypeString: {
+      const std::string text = v;
+      return "'" + text.substr(0, kMaxQuotedValueChars) + (text.size() > kMaxQuotedValueChars ? "...'" : "'") +
+             " (a string)";
+    }
+    case XmlRpc::XmlRpcValue::TypeArray:
+      return "a list of " + std::to_string(v.size());
+    case XmlRpc::XmlRpcValue::TypeStruct:
+      return "a map";
+    default:
+      return "a value of XmlRpc type " + std::to_string(static_cast<int>(v.getType()));
+  }
+}
+
+/// The member `name` of a parameter tree, or null when the tree is not a map or lacks it.
+const XmlRpc::XmlRpcValue* member(const XmlRpc::XmlRpcValue& tree, const std::string& name) {
+  XmlRpc::XmlRpcValue& t = const_cast<XmlRpc::XmlRpcValue&>(tree);
+  if (t.getType() != XmlRpc::XmlRpcValue::TypeStruct || !t.hasMember(name)) return nullptr;
+  return &t[name];
+}
+
+}  // namespace
+
+bool optionalParameter(const XmlRpc::XmlRpcValue& tree, const std::string& name, std::string* value,
+                       std::string* error) {
+  const XmlRpc::XmlRpcValue* found = member(tree, name);
+  if (!found) return true;
+  if (found->getType() != XmlRpc::XmlRpcValue::TypeString) {
+    *error = "parameter ~" + name + " = " + describeParameter(*found) + ": must be a string";
+    return false;
+  }
+  *value = static_cast<std::string>(const_cast<XmlRpc::XmlRpcValue&>(*found));
+  return true;
+}
+
+bool optionalParameter(const XmlRpc::XmlRpcValue& tree, const std::string& name, double* value, std::string* error) {
+  const XmlRpc::XmlRpcValue* found = member(tree, name);
+  if (!found) return true;
+  XmlRpc::XmlRpcValue& v = const_cast<XmlRpc::XmlRpcValue&>(*found);
+  if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble) {
+    *value = static_cast<double>(v);
+  } else if (v.getType() == XmlRpc::XmlRpcValue::TypeInt) {
+    *value = static_cast<int>(v);
+  } else {
+    *error = "parameter ~" + name + " = " + describeParameter(v) + ": must be a number";
+    return false;
+  }
+  return true;
+}
+
+std::vector<std::string> nonFiniteFields(const cloth_sim::ClothState& message) {
+  std::vector<std::string> fields;
+  const auto finitePoint = [](double x, double y, double z) {
+    return std::isfinite(x) && std::isfinite(y) && std::isfinite(z);
+  };
+  if (!std::all_of(message.positions.begin(), message.positions.end(),
+                   [&](const geometry_msgs::Point& p) { return finitePoint(p.x, p.y, p.z); })) {
+    fields.push_back("positions");
+  }
+  if (!std::all_of(message.velocities.begin(), message.velocities.end(),
+                   [&](const geometry_msgs::Vector3& v) { return finitePoint(v.x, v.y, v.z); })) {
+    fields.push_back("velocities");
+  }
+  if (!std::isfinite(message.sim_time)) fields.push_back("sim_time");
+  if (!std::isfinite(message.kinetic_energy)) fields.push_back("kinetic_energy");
+  if (!std::isfinite(message.potential_energy)) fields.push_back("potential_energy");
+  return fields;
+}
+
+void addFiniteValue(diagnostic_updater::DiagnosticStatusWrapper& status, const std::string& key, double value,
+                    std::vector<std::string>* non_finite) {
+  if (std::isfinite(value)) {
+    status.add(key, value);
+  } else {
+    status.add(key, "not finite");
+    non_finite->push_back(key);
+  }
+}
+
 YAML::Node toYaml(const XmlRpc::XmlRpcValue& value) {
   XmlRpc::XmlRpcValue& v = const_cast<XmlRpc::XmlRpcValue&>(value);  // XmlRpc's accessors are not const
   switch (v.getType()) {
     case XmlRpc::XmlRpcValue::TypeBoolean:
-      return YAML::Node(static_cast<bool>(v));
+      return taggedScalar(static_cast<bool>(v), "bool");
     case XmlRpc::XmlRpcValue::TypeInt:
-      return YAML::Node(static_cast<int>(v));
+      return taggedScalar(static_cast<int>(v), "int");
     case XmlRpc::XmlRpcValue::TypeDouble:
-      return YAML::Node(static_cast<double>(v));
+      return taggedScalar(static_cast<double>(v), "float");
     case XmlRpc::XmlRpcValue::TypeString:
-      return YAML::Node(static_cast<std::string>(v));
+      return taggedScalar(static_cast<std::string>(v), "str");
     case XmlRpc::XmlRpcValue::TypeArray: {
       YAML::Node list(YAML::NodeType::Sequence);
       for (int i = 0; i < v.size(); ++i) list.push_back(toYaml(v[i]));

@@ -2,7 +2,9 @@
 // this client with a --gtest_filter for the suites that configuration proves:
 //   mesh_rate.test    Mesh.*                                   (two 8x8 nodes, one with a custom frame_id)
 //   interaction.test  Wind.*:BadInput.*:Grasp.*                (hanging scene, wall time)
+//   bad_messages.test NodeTest.BadMessage*                     (every kind of bad ~wind and ~grasp)
 //   services.test     Services.*:LoadScene.*:Reconfigure.*:Diagnostics.*
+//   load_scene_refusals.test LoadSceneRefusal.*               (bad ~load_scene requests, old scene runs)
 //   ball.test         Ball.*                                   (config/scenes/ball.yaml)
 //   sim_time.test     SimTime.*                                (/use_sim_time, the test drives /clock)
 //   sim_time_twins.test SimTimeTwins.*                       (two node processes on one /clock)
@@ -31,8 +33,13 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <sys/stat.h>
+
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <limits>
+#include <map>
 #include <sstream>
 
 using cloth_sim::ClothState;
@@ -398,6 +405,112 @@ TEST_F(NodeTest, GraspReachesTargetAndReleaseLetsItFall) {
                       << " m (held at " << z_held << " m)";
 }
 
+// ---- 3b. Every kind of bad message (bad_messages.test: a node of its own, so that no earlier test has
+// used the throttled warnings these wait for; in this order) -------------------------------------------
+
+TEST_F(NodeTest, BadMessageSeventeenthGraspIsDropped) {
+  ClothState::ConstPtr frame0;
+  ASSERT_NO_FATAL_FAILURE(freshScene(true, &frame0));
+  ASSERT_TRUE(waitForLog("loaded scene", 10.0)) << "no INFO from the node on /rosout";
+  ros::Publisher grasp_pub = nh_.advertise<cloth_sim::Grasp>(nodeTopic("grasp"), 100);
+  ASSERT_TRUE(waitForSubscribers(grasp_pub, 1, 10.0));
+  ASSERT_NO_FATAL_FAILURE(setPaused(false));
+  const std::uint64_t log_since = log_->count();
+  // Each hand lifts its particle (second row, free) 10 cm; the next is sent once it has risen 2 cm, so
+  // all 16 are held (the node's ~grasp queue holds 10 messages: a burst of 17 would lose some).
+  constexpr double kLift_m = 0.1;
+  constexpr double kRisen_m = 0.02;
+  constexpr std::uint32_t kGrasps = 17;  // Simulation::kMaxGrasps + 1
+  for (std::uint32_t id = 1; id <= kGrasps; ++id) {
+    cloth_sim::Grasp grab;
+    grab.header.frame_id = "world";
+    grab.id = id;
+    grab.action = cloth_sim::Grasp::GRAB;
+    grab.particle = static_cast<int>(kHangingCols + id);
+    grab.target = frame0->positions[grab.particle];
+    grab.target.z += kLift_m;
+    grab.stiffness = 500.0;
+    const std::uint64_t since = states_->count();
+    grasp_pub.publish(grab);
+    if (id == kGrasps) break;
+    const double z0 = frame0->positions[grab.particle].z;
+    ASSERT_TRUE(states_->waitFor([&](const ClothState& s) { return s.positions[grab.particle].z > z0 + kRisen_m; },
+                                 10.0, since))
+        << "grasp " << id << " did not lift its particle";
+  }
+  const auto warning = waitForLog("dropped ~grasp id 17", 10.0, log_since);
+  ASSERT_TRUE(warning) << "no warning about the 17th grasp";
+  EXPECT_NE(warning->msg.find("16"), std::string::npos) << warning->msg;
+}
+
+TEST_F(NodeTest, BadMessagesOfEveryKindLeaveTheClothUntouched) {
+  constexpr std::uint32_t kFrames = 10;
+  ASSERT_NO_FATAL_FAILURE(freshScene(true));
+  ASSERT_TRUE(waitForLog("loaded scene", 10.0)) << "no INFO from the node on /rosout";
+  const auto reference = step(kFrames);
+  ASSERT_TRUE(reference);
+  ASSERT_TRUE(reset());
+  ros::Publisher wind_pub = nh_.advertise<geometry_msgs::Vector3Stamped>(nodeTopic("wind"), 100);
+  ros::Publisher grasp_pub = nh_.advertise<cloth_sim::Grasp>(nodeTopic("grasp"), 100);
+  ASSERT_TRUE(waitForSubscribers(wind_pub, 1, 10.0));
+  ASSERT_TRUE(waitForSubscribers(grasp_pub, 1, 10.0));
+  const std::uint64_t log_since = log_->count();
+  const double inf = std::numeric_limits<double>::infinity();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+
+  // ~wind: infinite, 173 m/s (each component within 100), then in a frame tf does not know. One
+  // subscription is served in order, so the last warning means the earlier ones were handled too
+  // (warnings from one place are throttled to one per 5 s).
+  const auto wind = [&](double x, double y, double z, const std::string& frame) {
+    geometry_msgs::Vector3Stamped message;
+    message.header.frame_id = frame;
+    message.vector.x = x;
+    message.vector.y = y;
+    message.vector.z = z;
+    wind_pub.publish(message);
+  };
+  wind(inf, 0.0, 0.0, "world");
+  wind(100.0, 100.0, 100.0, "world");
+  wind(nan, nan, nan, "world");
+  wind(5.0, 0.0, 0.0, "no_such_frame");
+  EXPECT_TRUE(waitForLog("dropped ~wind (inf", 10.0, log_since)) << "no warning about the infinite wind";
+  EXPECT_TRUE(waitForLog("dropped ~wind in frame 'no_such_frame'", 10.0, log_since));
+
+  // ~grasp: unknown release, unknown action, NaN target, infinite stiffness, NaN force, particles out of
+  // range both ways, then a frame tf does not know.
+  const auto grasp = [&](std::uint32_t id, std::uint8_t action, int particle, double target_z, double stiffness,
+                         double force, const std::string& frame) {
+    cloth_sim::Grasp message;
+    message.header.frame_id = frame;
+    message.id = id;
+    message.action = action;
+    message.particle = particle;
+    message.target.z = target_z;
+    message.stiffness = stiffness;
+    message.force.x = force;
+    grasp_pub.publish(message);
+  };
+  grasp(99, cloth_sim::Grasp::RELEASE, 0, 1.0, 0.0, 0.0, "world");
+  grasp(21, 7, 0, 1.0, 0.0, 0.0, "world");
+  grasp(22, cloth_sim::Grasp::GRAB, 5, nan, 0.0, 0.0, "world");
+  grasp(23, cloth_sim::Grasp::GRAB, 5, 1.0, inf, 0.0, "world");
+  grasp(24, cloth_sim::Grasp::GRAB, 5, 1.0, 0.0, nan, "world");
+  grasp(25, cloth_sim::Grasp::GRAB, -2, 1.0, 0.0, 0.0, "world");
+  grasp(26, cloth_sim::Grasp::GRAB, static_cast<int>(kHangingRows * kHangingCols), 1.0, 0.0, 0.0, "world");
+  grasp(27, cloth_sim::Grasp::GRAB, 5, 1.0, 0.0, 0.0, "no_such_frame");
+  EXPECT_TRUE(waitForLog("no grasp with id 99", 10.0, log_since));
+  EXPECT_TRUE(waitForLog("action 7", 10.0, log_since));
+  EXPECT_TRUE(waitForLog("dropped ~grasp id 22: target is not finite", 10.0, log_since));
+  // Ids 23 to 26 share one warning with the 17th grasp of the test before (throttled); id 27 comes after
+  // them on the same subscription, and the bits below show that none of them acted.
+  EXPECT_TRUE(waitForLog("dropped ~grasp id 27 in frame 'no_such_frame'", 10.0, log_since));
+
+  const auto after = step(kFrames);
+  ASSERT_TRUE(after);
+  EXPECT_TRUE(allFinite(*after));
+  EXPECT_TRUE(sameBits(*reference, *after)) << "a dropped message changed the cloth";
+}
+
 // ---- 5. reset, pause and step (services.test) -----------------------------------------------------
 
 TEST_F(NodeTest, ResetRestoresTheFirstFrame) {
@@ -460,6 +573,19 @@ TEST_F(NodeTest, StepIsRefusedUnlessPaused) {
   EXPECT_FALSE(zero.response.success);
 }
 
+TEST_F(NodeTest, StepOfZeroFramesIsRefusedWithAReason) {
+  ASSERT_NO_FATAL_FAILURE(freshScene(true));
+  cloth_sim::Step zero;
+  zero.request.frames = 0;
+  const std::uint64_t frame_before = states_->waitForNext(10.0, states_->count())->frame;
+  ASSERT_TRUE(callService(nodeTopic("step"), zero));
+  EXPECT_FALSE(zero.response.success);
+  EXPECT_NE(zero.response.message.find("frames"), std::string::npos) << zero.response.message;
+  const auto after = states_->waitForNext(10.0, states_->count());
+  ASSERT_TRUE(after) << "the node stopped publishing";
+  EXPECT_EQ(after->frame, frame_before);
+}
+
 // ---- 6. load_scene (services.test) ----------------------------------------------------------------
 
 TEST_F(NodeTest, LoadSceneOfAMissingSceneKeepsTheOldOne) {
@@ -490,6 +616,128 @@ TEST_F(NodeTest, LoadSceneOfAFilePathWorks) {
   const auto small = states_->waitFor([](const ClothState& s) { return s.rows == 6 && s.cols == 5; }, 10.0, since);
   ASSERT_TRUE(small) << "no 6x5 state after loading small.yaml";
   EXPECT_EQ(small->positions.size(), 30u);
+}
+
+namespace {
+
+std::string writeFile(const std::string& dir, const std::string& name, const std::string& text) {
+  const std::string path = dir + "/" + name;
+  std::ofstream(path, std::ios::binary) << text;
+  return path;
+}
+
+}  // namespace
+
+class LoadSceneRefusal : public NodeTest {
+ protected:
+  void TearDown() override {
+    for (const std::string& dir : dirs_) std::filesystem::remove_all(dir);
+  }
+
+  /// A fresh folder for files the node is asked to load (the node runs on this machine), removed after
+  /// the test.
+  std::string scratchDir() {
+    char pattern[] = "/tmp/cloth_sim_load_scene_XXXXXX";
+    const char* dir = mkdtemp(pattern);
+    if (!dir) {
+      ADD_FAILURE() << "cannot create a folder under /tmp";
+      return "/nonexistent";
+    }
+    dirs_.push_back(dir);
+    return dir;
+  }
+
+  /// Asks ~load_scene for `scene`, expects a refusal whose message holds every one of `expected`, and
+  /// checks that the hanging scene keeps running (10 more frames, same grid). Returns the message.
+  std::string expectRefusedAndOldSceneRuns(const std::string& scene, const std::vector<std::string>& expected) {
+    SCOPED_TRACE("load_scene '" + scene.substr(0, 80) + "'");
+    cloth_sim::LoadScene load;
+    load.request.scene = scene;
+    if (!callService(nodeTopic("load_scene"), load)) return "";
+    EXPECT_FALSE(load.response.success) << load.response.message;
+    EXPECT_NE(load.response.message.find("the current scene keeps running"), std::string::npos)
+        << load.response.message;
+    for (const std::string& text : expected) {
+      EXPECT_NE(load.response.message.find(text), std::string::npos) << "'" << text << "' missing from "
+                                                                     << load.response.message;
+    }
+    const std::uint64_t since = states_->count();
+    const auto now = states_->waitForNext(10.0, since);
+    EXPECT_TRUE(now) << "the node stopped publishing";
+    if (!now) return load.response.message;
+    const auto later = states_->waitFor([&](const ClothState& s) { return s.frame >= now->frame + 10; }, 15.0, since);
+    EXPECT_TRUE(later) << "the old scene stopped advancing";
+    if (later) {
+      EXPECT_EQ(later->rows, kHangingRows);
+      EXPECT_EQ(later->cols, kHangingCols);
+    }
+    return load.response.message;
+  }
+
+  std::vector<std::string> dirs_;
+};
+
+TEST_F(LoadSceneRefusal, AnEmptyNameADirectoryAndFilesThatAreNotScenes) {
+  ASSERT_NO_FATAL_FAILURE(freshScene(false));
+  const std::string dir = scratchDir();
+  expectRefusedAndOldSceneRuns("", {"empty"});
+  expectRefusedAndOldSceneRuns(dir, {"not a scene file"});
+  ASSERT_EQ(mkdir((dir + "/folder.yaml").c_str(), 0700), 0);
+  expectRefusedAndOldSceneRuns(dir + "/folder.yaml", {"is a directory"});
+  // Neither file is opened, so nothing of them can come back.
+  const std::string passwd = expectRefusedAndOldSceneRuns("/etc/passwd", {"not a scene file"});
+  EXPECT_EQ(passwd.find("root:"), std::string::npos) << passwd;
+  expectRefusedAndOldSceneRuns("../../etc/hostname", {"not a scene file"});
+}
+
+TEST_F(LoadSceneRefusal, AForeignFileNamedYamlIsQuotedOnlyAsAShortExcerpt) {
+  ASSERT_NO_FATAL_FAILURE(freshScene(false));
+  const std::string dir = scratchDir();
+  const std::string secret = "the_part_that_must_not_leak";
+  const std::string message = expectRefusedAndOldSceneRuns(
+      writeFile(dir, "passwd.yaml", "root:x:0:0:root:/root:/bin/bash\nuser:x:1000:1000:" + secret + ":/home\n"),
+      {"expected a map of scene keys", "root:x:0:0"});
+  EXPECT_EQ(message.find(secret), std::string::npos) << message;
+  EXPECT_LT(message.size(), 1000u) << message;
+}
+
+TEST_F(LoadSceneRefusal, AFileOverOneMebibyteIsRefusedBeforeItIsRead) {
+  ASSERT_NO_FATAL_FAILURE(freshScene(false));
+  const std::string dir = scratchDir();
+  // 2 MiB of a valid YAML comment: before, the node read and parsed all of it.
+  const std::string message = expectRefusedAndOldSceneRuns(
+      writeFile(dir, "big.yaml", "rows: 5\n#" + std::string(2 * 1024 * 1024, 'x') + "\n"),
+      {"larger than the limit of 1048576 bytes"});
+  EXPECT_LT(message.size(), 1000u);
+}
+
+TEST_F(LoadSceneRefusal, MalformedEmptyWrongTypesAndDuplicateKeys) {
+  ASSERT_NO_FATAL_FAILURE(freshScene(false));
+  const std::string dir = scratchDir();
+  expectRefusedAndOldSceneRuns(writeFile(dir, "malformed.yaml", "rows: [5\n"), {"not valid YAML"});
+  expectRefusedAndOldSceneRuns(writeFile(dir, "empty.yaml", ""), {"empty"});
+  expectRefusedAndOldSceneRuns(writeFile(dir, "types.yaml", "rows: five\n"), {"rows", "an integer"});
+  expectRefusedAndOldSceneRuns(writeFile(dir, "duplicate.yaml", "name: d\nrows: 5\nrows: 6\n"),
+                               {"duplicate key 'rows'"});
+}
+
+TEST_F(LoadSceneRefusal, AGoodSceneWithAMissingOrBadTextureKeepsTheOldSceneRunning) {
+  ASSERT_NO_FATAL_FAILURE(freshScene(false));
+  const std::string dir = scratchDir();
+  expectRefusedAndOldSceneRuns(writeFile(dir, "missing.yaml", "name: textured\nrows: 6\ntexture: missing.png\n"),
+                               {"missing.png"});
+  writeFile(dir, "bad.png", "this is not an image");
+  expectRefusedAndOldSceneRuns(writeFile(dir, "bad.yaml", "name: textured\nrows: 6\ntexture: bad.png\n"),
+                               {"texture"});
+}
+
+TEST_F(LoadSceneRefusal, AFrameRateTheNodeCannotTimeIsRefusedAndTheOldSceneRuns) {
+  // Before, validation passed, the new scene replaced the old one, then ros::Duration threw: the call
+  // failed with no answer and the node sat at frame 0 saying "running".
+  ASSERT_NO_FATAL_FAILURE(freshScene(false));
+  const std::string dir = scratchDir();
+  expectRefusedAndOldSceneRuns(writeFile(dir, "slow.yaml", "name: slow\nframe_rate: 1.0e-10\n"),
+                               {"frame_rate", "[1, 1000]"});
 }
 
 // ---- 10. dynamic_reconfigure (services.test) ------------------------------------------------------
@@ -840,10 +1088,19 @@ void expectRefused(const std::string& name, const std::string& arguments, const 
   }
 }
 
+/// The same with private parameters set on the master first (the command line cannot give lists or maps:
+/// roscpp takes `_x:=[a, b]` as a string); they are deleted afterwards.
+void expectRefusedWithParameters(const std::string& name, const std::map<std::string, XmlRpc::XmlRpcValue>& parameters,
+                                 const std::vector<std::string>& expected) {
+  for (const auto& [key, value] : parameters) ros::param::set("/" + name + "/" + key, value);
+  expectRefused(name, "", expected);
+  ros::param::del("/" + name);
+}
+
 }  // namespace
 
 TEST(BadParams, ZeroSubstepsNamesTheParameterAndItsRange) {
-  expectRefused("bad_substeps", "_substeps:=0", {"substeps = 0", "[1, 10000]"});
+  expectRefused("bad_substeps", "_substeps:=0", {"substeps = '0'", "auto", "[1, 10000]"});
 }
 
 TEST(BadParams, UnknownIntegratorIsNamed) {
@@ -861,6 +1118,45 @@ TEST(BadParams, SolverCapAndThreadsOutsideTheirRangesAreNamed) {
 
 TEST(BadParams, UnknownSceneIsNamed) {
   expectRefused("bad_scene", "_scene:=no_such_scene", {"no_such_scene", "hanging"});
+}
+
+TEST(BadParams, ANumberForTheSceneIsRefusedByTypeNotTakenAsTheDefault) {
+  // Before, `_scene:=42` silently ran the default scene.
+  expectRefused("bad_scene_type", "_scene:=42", {"~scene = 42 (an integer): must be a string"});
+}
+
+TEST(BadParams, AListForTheFrameIdIsRefusedByType) {
+  XmlRpc::XmlRpcValue list;
+  list[0] = std::string("a");
+  list[1] = std::string("b");
+  expectRefusedWithParameters("bad_frame_type", {{"frame_id", list}}, {"~frame_id = a list of 2: must be a string"});
+  expectRefused("bad_mesh_rate_type", "_mesh_rate:=fast", {"~mesh_rate", "must be a number"});
+}
+
+TEST(BadParams, ASceneKeyOfTheWrongTypeIsRefusedByName) {
+  expectRefused("bad_name_type", "_name:=42", {"name", "expected a string"});
+  expectRefused("bad_rows_type", "_rows:=5.5", {"rows", "expected an integer"});
+}
+
+TEST(BadParams, ATinyFrameRateIsRefusedByNameInsteadOfAbortingTheNode) {
+  // Before, 1e-10 Hz passed validation and ros::Duration aborted the node ("out of dual 32-bit range").
+  expectRefused("bad_frame_rate", "_frame_rate:=1e-10", {"frame_rate", "[1, 1000]"});
+}
+
+TEST(BadParams, APinMotionTooFastForTheNodeToPublishFinitelyIsRefused) {
+  // Before, the curtain at pin_motion_period 1e-300 ran and published kinetic_energy = inf.
+  expectRefused("bad_pin_period", "_scene:=curtain _pin_motion_period:=1e-300",
+                {"pin_motion_period", "at most 100 m/s"});
+}
+
+TEST(BadParams, NanInfAndAbsurdSizesAreNamed) {
+  // roscpp reads `nan` and `inf` on the command line as doubles.
+  expectRefused("bad_nan", "_mass:=nan", {"mass = nan"});
+  expectRefused("bad_inf", "_structural_stiffness:=inf", {"structural_stiffness = inf"});
+  expectRefused("bad_rows", "_rows:=100000", {"rows = 100000", "[2, 512]"});
+  XmlRpc::XmlRpcValue wind;
+  for (int i = 0; i < 3; ++i) wind[i] = 100.0;  // each component allowed, 173 m/s in all
+  expectRefusedWithParameters("bad_wind", {{"wind", wind}}, {"wind", "magnitude"});
 }
 
 TEST(BadParams, GoodParametersRun) {

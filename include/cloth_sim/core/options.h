@@ -19,15 +19,21 @@ struct OptionLimits {
   static constexpr int kMinGridSide = 2;
   static constexpr int kMaxGridSide = 512;
   static constexpr int kMaxSubsteps = 10000;
+  /// The node advances, publishes and updates its 1 Hz diagnostics from one timer per frame: a longer
+  /// frame would leave them silent (and 1e-10 Hz overflowed ros::Duration).
+  static constexpr double kMinFrameRateHz = 1.0;
   static constexpr double kMaxFrameRateHz = 1000.0;
   static constexpr double kMaxStiffnessN_per_m = 1e7;
   static constexpr double kMaxDampingN_s_per_m = 1e4;
-  static constexpr double kMaxWindSpeed_m_per_s = 100.0;
+  static constexpr double kMaxWindSpeed_m_per_s = 100.0;  ///< magnitude of the mean wind vector
   static constexpr double kMaxClothSide_m = 100.0;
   static constexpr double kMaxMass_kg = 1e4;
   static constexpr double kMaxCoordinate_m = 1000.0;        ///< cloth, colliders and pin motion
   static constexpr double kMaxAcceleration_m_per_s2 = 1000.0;  ///< gravity
-  static constexpr double kMaxColliderSpeed_m_per_s = 100.0;
+  static constexpr double kMaxColliderSpeed_m_per_s = 100.0;  ///< peak: drift plus swing |A| 2 pi / T
+  /// Peak speed of a pin: its motion |A| 2 pi / T, and its travel to pin_positions (1.5 d / travel time).
+  /// A pin at 6e303 m/s (pin_motion_period 1e-300) made the kinetic energy infinite.
+  static constexpr double kMaxPinSpeed_m_per_s = 100.0;
   static constexpr double kMaxPeriod_s = 1e4;               ///< gusts, pin motion, sphere swings
   static constexpr double kMaxWindCoefficient = 10.0;       ///< paper coefficient, N s/m, and drag C_d
   static constexpr double kMaxAirDensity_kg_per_m3 = 10.0;

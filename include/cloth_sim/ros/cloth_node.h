@@ -134,6 +134,11 @@ class ClothNode {
   /// All or nothing: a file that does not read, validate or fit the running grid leaves the cloth as it was.
   bool onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::LoadState::Response& response);
   void onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t level);
+  /// Why a reconfigure request cannot be taken as it stands (a non-finite number, a wind over the limit,
+  /// named), or "" (ranges are then checked by the core's validation in retune).
+  std::string invalidReconfigureValue(const cloth_sim::ClothConfig& config) const;
+  /// Publishes OptionLimits as the reconfigure ranges (the .cfg leaves them open so nothing is clamped).
+  void publishReconfigureRanges();
   /// The options in force as a reconfigure config.
   void fillConfig(cloth_sim::ClothConfig* config) const;
   void pushConfig();

@@ -6,6 +6,7 @@
 #include "cloth_sim/Grasp.h"
 #include "cloth_sim/core/simulation.h"
 
+#include <diagnostic_updater/DiagnosticStatusWrapper.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <ros/time.h>
 #include <visualization_msgs/Marker.h>
@@ -50,7 +51,25 @@ std::vector<geometry_msgs::TransformStamped> toSphereTransforms(const core::Simu
 /// A GRAB message as a core request; the target must already be in the simulation's frame.
 core::GraspRequest toGraspRequest(const cloth_sim::Grasp& message, const Eigen::Vector3d& target_in_frame_m);
 
-/// A parameter tree (as XmlRpc gives it) as YAML, so parameters and scene files share one parser.
+/// A parameter tree (as XmlRpc gives it) as YAML, so parameters and scene files share one parser. Each
+/// scalar carries the YAML tag of its XmlRpc type (!!bool, !!int, !!float, !!str), and the scene-file
+/// reader refuses a tag that does not fit the key: a parameter's type is checked there, once.
 YAML::Node toYaml(const XmlRpc::XmlRpcValue& value);
+
+/// The node's own (non-scene) parameters, read from the private namespace's tree. Absent: *value is left
+/// as it is (the default) and true. Present with another XmlRpc type (`_scene:=42`, a list for
+/// ~frame_id): false with *error naming the parameter, what it got and the type expected. The double
+/// overload accepts integers.
+bool optionalParameter(const XmlRpc::XmlRpcValue& tree, const std::string& name, std::string* value,
+                       std::string* error);
+bool optionalParameter(const XmlRpc::XmlRpcValue& tree, const std::string& name, double* value, std::string* error);
+
+/// The ClothState fields holding a non-finite number ("positions", "velocities", "sim_time",
+/// "kinetic_energy", "potential_energy"); empty when it may be published.
+std::vector<std::string> nonFiniteFields(const cloth_sim::ClothState& message);
+
+/// Adds a number to a diagnostics status, or "not finite" (and `key` to *non_finite) when it is not.
+void addFiniteValue(diagnostic_updater::DiagnosticStatusWrapper& status, const std::string& key, double value,
+                    std::vector<std::string>* non_finite);
 
 }  // namespace cloth_sim

@@ -1,0 +1,281 @@
+// Bad input that reaches the core through scene files and parameters (doc/RELIABILITY.md, "Bad input"):
+// each one is refused with a reason that names what is wrong, quotes at most a short excerpt of the
+// file, and never reads more of a file than the limit.
+#include "cloth_sim/core/constants.h"
+#include "cloth_sim/core/simulation.h"
+#include "cloth_sim/io/scene_file.h"
+
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+namespace cloth_sim::core {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// A fresh folder under the test's temporary directory.
+std::string scratchDir(const std::string& name) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("cloth_sim_bad_input_" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir.string();
+}
+
+std::string writeFile(const std::string& dir, const std::string& name, const std::string& text) {
+  const std::string path = dir + "/" + name;
+  std::ofstream(path, std::ios::binary) << text;
+  return path;
+}
+
+/// Loads `path` expecting a refusal; returns all errors joined.
+std::string refusal(const std::string& path) {
+  SceneOptions options;
+  std::vector<std::string> errors;
+  EXPECT_FALSE(loadSceneFile(path, &options, &errors)) << path;
+  std::string joined;
+  for (const std::string& e : errors) joined += e + "\n";
+  EXPECT_FALSE(joined.empty()) << "refused without a reason: " << path;
+  return joined;
+}
+
+std::string refusalOf(const std::string& yaml) {
+  return refusal(writeFile(scratchDir("yaml"), "scene.yaml", yaml));
+}
+
+bool mentions(const std::string& text, const std::string& needle) { return text.find(needle) != std::string::npos; }
+
+/// The first problem validation finds with `options`, or "" when it accepts them.
+std::string problemsWith(const SceneOptions& options) {
+  const std::vector<std::string> problems = validateSceneOptions(options);
+  std::string joined;
+  for (const std::string& p : problems) joined += p + "\n";
+  return joined;
+}
+
+// ---- scene files: paths, kinds of file, sizes ----------------------------------------------------
+
+TEST(BadSceneFile, AnEmptyNameIsRefused) {
+  EXPECT_TRUE(mentions(refusal(resolveScenePath("", "/nonexistent")), "empty"));
+}
+
+TEST(BadSceneFile, ADirectoryIsRefusedEvenWithAYamlName) {
+  const std::string dir = scratchDir("directory") + "/looks_like.yaml";
+  fs::create_directories(dir);
+  EXPECT_TRUE(mentions(refusal(dir), "is a directory"));
+}
+
+TEST(BadSceneFile, AFifoOrADeviceIsRefusedWithoutBeingOpened) {
+  // Opening a FIFO with no writer blocks forever: refusing it proves the kind was checked first.
+  const std::string dir = scratchDir("special");
+  const std::string fifo = dir + "/pipe.yaml";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  EXPECT_TRUE(mentions(refusal(fifo), "not a regular file"));
+  const std::string device = dir + "/zero.yaml";
+  fs::create_symlink("/dev/zero", device);
+  EXPECT_TRUE(mentions(refusal(device), "not a regular file"));
+}
+
+TEST(BadSceneFile, AFileThatIsNotNamedLikeASceneFileIsRefusedBeforeItIsOpened) {
+  // /etc/passwd and ../../etc/hostname are what a peer tried; neither is opened.
+  EXPECT_TRUE(mentions(refusal("/etc/passwd"), "not a scene file"));
+  EXPECT_TRUE(mentions(refusal(resolveScenePath("../../etc/hostname", "/nonexistent")), "not a scene file"));
+  EXPECT_EQ(resolveScenePath("hanging", "/scenes"), "/scenes/hanging.yaml") << "built-in names still resolve";
+}
+
+TEST(BadSceneFile, AFileOverTheSizeLimitIsRefusedAndTheMessageStaysShort) {
+  // A valid scene padded with a comment to one byte over the limit: only its size is wrong.
+  const std::string scene = "rows: 5\ncols: 5\n# ";
+  std::string text = scene + std::string(kMaxSceneFileBytes + 1 - scene.size() - 1, 'x') + "\n";
+  ASSERT_EQ(text.size(), kMaxSceneFileBytes + 1);
+  const std::string dir = scratchDir("big");
+  const std::string message = refusal(writeFile(dir, "big.yaml", text));
+  EXPECT_TRUE(mentions(message, "larger than the limit of " + std::to_string(kMaxSceneFileBytes) + " bytes"))
+      << message;
+  EXPECT_LT(message.size(), 300u) << message;
+  // Control: at the limit exactly, the same scene loads.
+  text.erase(text.size() - 2, 1);
+  ASSERT_EQ(text.size(), kMaxSceneFileBytes);
+  SceneOptions options;
+  std::vector<std::string> errors;
+  EXPECT_TRUE(loadSceneFile(writeFile(dir, "limit.yaml", text), &options, &errors))
+      << (errors.empty() ? "" : errors.front());
+  EXPECT_EQ(options.rows, 5);
+}
+
+// ---- scene files: content --------------------------------------------------------------------------
+
+TEST(BadSceneFile, AnEmptyOrBlankFileIsRefused) {
+  EXPECT_TRUE(mentions(refusalOf(""), "empty"));
+  EXPECT_TRUE(mentions(refusalOf("  \n\n"), "empty"));
+}
+
+TEST(BadSceneFile, MalformedYamlNamesTheLineAndQuotesNoContent) {
+  const std::string message = refusalOf("rows: 5\ncols: [1, 2\nsecret_token_1234: 1\n");
+  EXPECT_TRUE(mentions(message, "not valid YAML at line")) << message;
+  EXPECT_FALSE(mentions(message, "secret_token_1234")) << message;
+}
+
+TEST(BadSceneFile, AFileThatIsNotASceneIsQuotedOnlyAsAShortCutExcerpt) {
+  // /etc/passwd renamed .yaml: one long plain scalar. Before, the whole of it came back in the message.
+  const std::string passwd =
+      "root:x:0:0:root:/root:/bin/bash\ndaemon:x:1:1:daemon:/usr/sbin:/usr/sbin/nologin\n"
+      "secret:x:1000:1000:the_part_that_must_not_leak:/home/secret:/bin/bash\n";
+  const std::string message = refusalOf(passwd);
+  EXPECT_TRUE(mentions(message, "expected a map of scene keys")) << message;
+  EXPECT_TRUE(mentions(message, "root:x:0:0")) << "a short excerpt helps to recognise the file: " << message;
+  EXPECT_TRUE(mentions(message, "...'")) << "the excerpt is marked as cut: " << message;
+  EXPECT_FALSE(mentions(message, "the_part_that_must_not_leak")) << message;
+  EXPECT_LT(message.size(), 200u) << message;
+}
+
+TEST(BadSceneFile, LongUnknownKeysAndValuesAreCut) {
+  const std::string secret = "the_part_that_must_not_leak";
+  const std::string padding(60, 'k');
+  for (const std::string& yaml :
+       {padding + secret + ": 1\n", "rows: " + padding + secret + "\n", "pins: [" + padding + secret + "]\n",
+        "spheres:\n  - {" + padding + secret + ": 1}\n", "integrator: " + padding + secret + "\n"}) {
+    const std::string message = refusalOf(yaml);
+    EXPECT_FALSE(mentions(message, secret)) << message;
+    EXPECT_TRUE(mentions(message, "kkkk")) << "still quotes the start: " << message;
+  }
+}
+
+TEST(BadSceneFile, ADuplicateKeyIsRefusedByName) {
+  // yaml-cpp keeps both entries; before, the last one silently won.
+  const std::string message = refusalOf("rows: 5\ncols: 5\nrows: 7\n");
+  EXPECT_TRUE(mentions(message, "duplicate key 'rows'")) << message;
+  EXPECT_TRUE(mentions(refusalOf("spheres:\n  - {center: [0, 0, 0], radius: 0.1, radius: 0.2}\n"), "'radius' twice"));
+}
+
+TEST(BadSceneFile, WrongTypesAreRefusedByName) {
+  EXPECT_TRUE(mentions(refusalOf("rows: [5]\n"), "rows"));
+  EXPECT_TRUE(mentions(refusalOf("mass: heavy\n"), "a number"));
+  EXPECT_TRUE(mentions(refusalOf("gravity: 9.81\n"), "3 numbers"));
+  EXPECT_TRUE(mentions(refusalOf("spheres: {center: [0, 0, 0]}\n"), "a list of maps"));
+}
+
+TEST(BadSceneFile, AnExplicitTagThatDoesNotFitTheKeyIsRefused) {
+  // Parameters reach the reader tagged with their XmlRpc type: `_name:=42` arrives as !!int 42.
+  EXPECT_TRUE(mentions(refusalOf("name: !!int 42\n"), "name"));
+  EXPECT_TRUE(mentions(refusalOf("rows: !!str 5\n"), "an integer"));
+  EXPECT_TRUE(mentions(refusalOf("rows: !!float 5\n"), "an integer"));
+  EXPECT_TRUE(mentions(refusalOf("wind_enabled: !!int 1\n"), "true or false"));
+  EXPECT_TRUE(mentions(refusalOf("mass: !!str 0.5\n"), "a number"));
+  // What fits is taken: an integer for a number, an integer particle index for a pin.
+  SceneOptions options;
+  std::vector<std::string> errors;
+  const std::string path = writeFile(scratchDir("tags"), "fits.yaml",
+                                     "name: !!str tagged\nmass: !!int 1\nrows: !!int 6\npins: [!!int 0, top_right]\n");
+  ASSERT_TRUE(loadSceneFile(path, &options, &errors)) << (errors.empty() ? "" : errors.front());
+  EXPECT_EQ(options.mass_kg, 1.0);
+  EXPECT_EQ(options.pins.front(), "0");
+}
+
+TEST(BadSceneFile, AMissingTextureOrOneThatIsNotARegularFileIsRefused) {
+  const std::string dir = scratchDir("texture");
+  EXPECT_TRUE(mentions(refusal(writeFile(dir, "missing.yaml", "texture: no_such.png\n")), "no_such.png"));
+  fs::create_directories(dir + "/folder.png");
+  EXPECT_TRUE(mentions(refusal(writeFile(dir, "folder.yaml", "texture: folder.png\n")), "not a regular file"));
+  ASSERT_EQ(mkfifo((dir + "/pipe.png").c_str(), 0600), 0);
+  EXPECT_TRUE(mentions(refusal(writeFile(dir, "pipe.yaml", "texture: pipe.png\n")), "not a regular file"));
+}
+
+TEST(BadSceneFile, A512By512SceneLoadsAndBuildsAnd513IsRefused) {
+  const std::string dir = scratchDir("large");
+  SceneOptions options;
+  std::vector<std::string> errors;
+  ASSERT_TRUE(loadSceneFile(writeFile(dir, "large.yaml", "rows: 512\ncols: 512\n"), &options, &errors))
+      << (errors.empty() ? "" : errors.front());
+  const Simulation simulation(options);
+  EXPECT_EQ(simulation.state().particleCount(), 512 * 512);
+  EXPECT_TRUE(simulation.state().positions_m.allFinite());
+  EXPECT_TRUE(mentions(refusalOf("rows: 513\ncols: 512\n"), "rows = 513"));
+}
+
+// ---- ranges the physics and the node can honour ----------------------------------------------------
+
+TEST(BadOptions, APinMotionPeriodOf1eMinus300IsRefusedByItsPeakSpeed) {
+  // The curtain's rail (0.15 m) at a period of 1e-300 s moved its pins at 9e298 m/s: the kinetic energy
+  // on ~state was inf.
+  SceneOptions options;
+  options.pin_motion_amplitude_m = Eigen::Vector3d(0.15, 0.0, 0.0);
+  options.pin_motion_period_s = 1e-300;
+  const std::string problems = problemsWith(options);
+  EXPECT_TRUE(mentions(problems, "pin_motion_period")) << problems;
+  EXPECT_TRUE(mentions(problems, "at most 100 m/s")) << problems;
+  // The shortest period the limit allows runs with finite energies.
+  options.pin_motion_period_s = 0.15 * kTwoPi / OptionLimits::kMaxPinSpeed_m_per_s * 1.001;
+  ASSERT_EQ(problemsWith(options), "");
+  Simulation simulation(options);
+  for (int frame = 0; frame < 10; ++frame) simulation.advanceFrame();
+  EXPECT_TRUE(std::isfinite(simulation.energies().kinetic_J));
+  EXPECT_TRUE(std::isfinite(simulation.energies().potential_J));
+  // A fixed pin has no speed whatever its period.
+  options.pin_motion_amplitude_m.setZero();
+  options.pin_motion_period_s = 1e-300;
+  EXPECT_EQ(problemsWith(options), "");
+}
+
+TEST(BadOptions, PinsTravellingToTheirHooksTooFastAreRefused) {
+  SceneOptions options;
+  options.pin_positions_m = {Eigen::Vector3d(-0.3, 0.0, 1.5), Eigen::Vector3d(0.3, 0.0, 1.5)};
+  options.pin_travel_time_s = 1e-300;
+  EXPECT_TRUE(mentions(problemsWith(options), "pin_travel_time")) << problemsWith(options);
+  options.pin_travel_time_s = 1.0;  // the drape's
+  EXPECT_EQ(problemsWith(options), "");
+}
+
+TEST(BadOptions, ASphereSwingingFasterThanTheColliderSpeedLimitIsRefused) {
+  SceneOptions options;
+  SphereCollider sphere;
+  sphere.oscillation_amplitude_m = Eigen::Vector3d(0.0, 0.75, 0.0);
+  sphere.oscillation_period_s = 1e-9;
+  options.colliders.spheres.push_back(sphere);
+  EXPECT_TRUE(mentions(problemsWith(options), "spheres[0]")) << problemsWith(options);
+  options.colliders.spheres[0].oscillation_period_s = 6.0;  // the ball's
+  EXPECT_EQ(problemsWith(options), "");
+}
+
+TEST(BadOptions, AFrameRateTheNodeCannotTimeIsRefused) {
+  // 1e-10 Hz aborted the node (a 1e10 s ros::Duration); the node times, publishes and diagnoses per frame.
+  SceneOptions options;
+  for (const double rate_hz : {1e-10, 0.5, 0.0, -1.0, 1001.0, std::nan("")}) {
+    options.frame_rate_hz = rate_hz;
+    const std::string problems = problemsWith(options);
+    EXPECT_TRUE(mentions(problems, "frame_rate")) << rate_hz << ": " << problems;
+    EXPECT_TRUE(mentions(problems, "[1, 1000]")) << problems;
+  }
+  options.frame_rate_hz = OptionLimits::kMinFrameRateHz;
+  EXPECT_EQ(problemsWith(options), "");
+}
+
+TEST(BadOptions, AWindOver100MetresPerSecondInMagnitudeIsRefused) {
+  // Each component within 100 m/s is not enough: (100, 100, 100) is 173 m/s.
+  SceneOptions options;
+  options.wind.velocity_m_per_s = Eigen::Vector3d(100.0, 100.0, 100.0);
+  EXPECT_TRUE(mentions(problemsWith(options), "magnitude")) << problemsWith(options);
+  options.wind.velocity_m_per_s = Eigen::Vector3d(0.0, 100.0, 0.0);
+  EXPECT_EQ(problemsWith(options), "");
+}
+
+TEST(BadOptions, NonFiniteValuesAreRefusedByName) {
+  SceneOptions options;
+  options.mass_kg = std::nan("");
+  options.springs[0].stiffness_N_per_m = INFINITY;
+  options.gravity_m_per_s2.x() = -INFINITY;
+  const std::string problems = problemsWith(options);
+  for (const char* field : {"mass", "structural_stiffness", "gravity"}) {
+    EXPECT_TRUE(mentions(problems, field)) << problems;
+  }
+}
+
+}  // namespace
+}  // namespace cloth_sim::core

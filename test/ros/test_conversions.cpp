@@ -1,0 +1,98 @@
+// The node's conversions on their own (no master needed): a parameter of the wrong type is refused by
+// name instead of falling back to a default, and no non-finite number is let out to be published.
+#include "cloth_sim/io/scene_file.h"
+#include "cloth_sim/ros/conversions.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace cloth_sim {
+namespace {
+
+bool mentions(const std::string& text, const std::string& needle) { return text.find(needle) != std::string::npos; }
+
+/// Applies one parameter (as the parameter server would hand it over) to the default options.
+std::string overlayError(const std::string& key, const XmlRpc::XmlRpcValue& value) {
+  YAML::Node overlay(YAML::NodeType::Map);
+  overlay[key] = toYaml(value);
+  core::SceneOptions options;
+  std::vector<std::string> errors;
+  if (core::applySceneYaml(overlay, "parameter", &options, &errors)) return "";
+  return errors.empty() ? "refused without a reason" : errors.front();
+}
+
+TEST(ParameterTypes, ASceneKeyGivenTheWrongXmlRpcTypeIsRefusedByName) {
+  const std::string name_error = overlayError("name", XmlRpc::XmlRpcValue(42));
+  EXPECT_TRUE(mentions(name_error, "name")) << name_error;
+  EXPECT_TRUE(mentions(name_error, "a string")) << name_error;
+  EXPECT_TRUE(mentions(overlayError("rows", XmlRpc::XmlRpcValue(std::string("5"))), "an integer"));
+  EXPECT_TRUE(mentions(overlayError("rows", XmlRpc::XmlRpcValue(5.0)), "an integer"));
+  EXPECT_TRUE(mentions(overlayError("mass", XmlRpc::XmlRpcValue(std::string("0.5"))), "a number"));
+  EXPECT_TRUE(mentions(overlayError("wind_enabled", XmlRpc::XmlRpcValue(1)), "true or false"));
+  // What fits is taken: an integer for a number, integers and names mixed in a pin list.
+  EXPECT_EQ(overlayError("mass", XmlRpc::XmlRpcValue(2)), "");
+  EXPECT_EQ(overlayError("texture", XmlRpc::XmlRpcValue(std::string("cloth.png"))), "");
+  XmlRpc::XmlRpcValue pins;
+  pins[0] = 0;
+  pins[1] = std::string("top_right");
+  EXPECT_EQ(overlayError("pins", pins), "");
+}
+
+TEST(ParameterTypes, ANodeParameterOfTheWrongTypeIsRefusedAndAnAbsentOneKeepsItsDefault) {
+  XmlRpc::XmlRpcValue tree;
+  tree["scene"] = 42;
+  tree["frame_id"][0] = std::string("a");
+  tree["frame_id"][1] = std::string("b");
+  tree["mesh_rate"] = 10;
+  tree["parent_frame_id"] = std::string("map");
+  std::string text = "default";
+  std::string error;
+  EXPECT_FALSE(optionalParameter(tree, "scene", &text, &error));
+  EXPECT_TRUE(mentions(error, "~scene = 42 (an integer): must be a string")) << error;
+  EXPECT_EQ(text, "default");
+  EXPECT_FALSE(optionalParameter(tree, "frame_id", &text, &error));
+  EXPECT_TRUE(mentions(error, "~frame_id = a list of 2: must be a string")) << error;
+  double rate_hz = 0.0;
+  EXPECT_TRUE(optionalParameter(tree, "mesh_rate", &rate_hz, &error));
+  EXPECT_EQ(rate_hz, 10.0) << "an integer is a number";
+  EXPECT_FALSE(optionalParameter(tree, "parent_frame_id", &rate_hz, &error));
+  EXPECT_TRUE(mentions(error, "~parent_frame_id = 'map' (a string): must be a number")) << error;
+  EXPECT_TRUE(optionalParameter(tree, "absent", &text, &error));
+  EXPECT_EQ(text, "default");
+}
+
+TEST(FiniteOutput, AStateWithANonFiniteNumberAnywhereIsFlaggedByField) {
+  cloth_sim::ClothState state;
+  state.positions.resize(4);
+  state.velocities.resize(4);
+  EXPECT_TRUE(nonFiniteFields(state).empty());
+  state.kinetic_energy = std::numeric_limits<double>::infinity();  // pin_motion_period 1e-300 did this
+  EXPECT_EQ(nonFiniteFields(state), std::vector<std::string>{"kinetic_energy"});
+  state.kinetic_energy = 0.0;
+  state.velocities[3].z = std::nan("");
+  state.potential_energy = -std::numeric_limits<double>::infinity();
+  EXPECT_EQ(nonFiniteFields(state), (std::vector<std::string>{"velocities", "potential_energy"}));
+  state.velocities[3].z = 0.0;
+  state.potential_energy = 0.0;
+  state.positions[0].x = std::nan("");
+  state.sim_time = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(nonFiniteFields(state), (std::vector<std::string>{"positions", "sim_time"}));
+}
+
+TEST(FiniteOutput, ADiagnosticsValueThatIsNotFiniteIsWrittenAsTextAndNamed) {
+  diagnostic_updater::DiagnosticStatusWrapper status;
+  std::vector<std::string> non_finite;
+  addFiniteValue(status, "kinetic energy [J]", std::numeric_limits<double>::infinity(), &non_finite);
+  addFiniteValue(status, "max strain", 0.25, &non_finite);
+  ASSERT_EQ(status.values.size(), 2u);
+  EXPECT_EQ(status.values[0].value, "not finite");
+  EXPECT_EQ(std::stod(status.values[1].value), 0.25);
+  EXPECT_EQ(non_finite, std::vector<std::string>{"kinetic energy [J]"});
+}
+
+}  // namespace
+}  // namespace cloth_sim
