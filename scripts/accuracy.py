@@ -14,7 +14,6 @@ scripts/accuracy_plot.py, which needs matplotlib).
 """
 
 import argparse
-import csv
 import datetime
 import glob
 import os
@@ -22,6 +21,8 @@ import platform
 import subprocess
 import sys
 import time
+
+from accuracy_plot import read_csv  # the same CSV the plots read (scripts/ is on sys.path when run)
 
 PARETO_SCENES = ("hanging", "flag", "ball")
 # Grid side -> simulated seconds. The spans are short so that `make accuracy` stays within about 25 minutes on
@@ -52,53 +53,6 @@ REPO_DEFAULT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 def log(message):
     print(message, file=sys.stderr, flush=True)
-
-
-def read_csv(path):
-    metadata, lines = {}, []
-    with open(path) as f:
-        for line in f:
-            if line.startswith("# "):
-                key, _, value = line[2:].rstrip("\n").partition(": ")
-                metadata.setdefault(key, []).append(value)
-            elif line.strip():
-                lines.append(line)
-    return metadata, list(csv.DictReader(lines))
-
-
-class Runner:
-    def __init__(self, bench, out_dir, reuse):
-        self.bench = bench
-        self.out_dir = out_dir
-        self.reuse = reuse
-        self.commands = []
-        self.total_s = 0.0  # wall time of the cloth_bench runs, reused ones included (from NAME.seconds)
-
-    def run(self, name, args):
-        """Runs cloth_bench with args (its stdout kept in OUT/name.txt); returns the stdout text."""
-        text_path = os.path.join(self.out_dir, name + ".txt")
-        shown = "cloth_bench " + " ".join(args)
-        self.commands.append(shown)
-        seconds_path = os.path.join(self.out_dir, name + ".seconds")
-        if self.reuse and os.path.exists(text_path):
-            if os.path.exists(seconds_path):
-                with open(seconds_path) as f:
-                    self.total_s += float(f.read())
-            with open(text_path) as f:
-                return f.read()
-        log("==> accuracy: %s" % shown)
-        start = time.monotonic()
-        done = subprocess.run([self.bench] + args, stdout=subprocess.PIPE, universal_newlines=True)
-        seconds = time.monotonic() - start
-        self.total_s += seconds
-        with open(seconds_path, "w") as f:
-            f.write("%.1f\n" % seconds)
-        log("    %.0f s" % seconds)
-        if done.returncode != 0:
-            raise SystemExit("accuracy: cloth_bench failed (exit %d): %s" % (done.returncode, shown))
-        with open(text_path, "w") as f:
-            f.write(done.stdout)
-        return done.stdout
 
 
 def fmt(value, digits=2):

@@ -1,6 +1,7 @@
 #include "accuracy_tool.h"
 
 #include "accuracy.h"
+#include "number_parsing.h"
 #include "scene_override.h"
 
 #include "cloth_sim/core/options.h"
@@ -157,25 +158,6 @@ struct ToolOptions {
   bool help = false;
 };
 
-std::optional<double> parseNumber(const std::string& text) {
-  try {
-    std::size_t used = 0;
-    const double value = std::stod(text, &used);
-    if (used != text.size() || !std::isfinite(value)) return std::nullopt;
-    return value;
-  } catch (const std::exception&) {
-    return std::nullopt;
-  }
-}
-
-std::optional<int> parseInteger(const std::string& text) {
-  int value = 0;
-  const char* end = text.data() + text.size();
-  const auto [ptr, ec] = std::from_chars(text.data(), end, value);
-  if (ec != std::errc() || ptr != end) return std::nullopt;
-  return value;
-}
-
 std::vector<std::string> splitList(const std::string& text) {
   std::vector<std::string> items;
   std::stringstream stream(text);
@@ -189,8 +171,8 @@ std::vector<std::string> splitList(const std::string& text) {
 std::optional<GridSize> parseGrid(const std::string& text) {
   const std::size_t x = text.find('x');
   if (x == std::string::npos) return std::nullopt;
-  const std::optional<int> rows = parseInteger(text.substr(0, x));
-  const std::optional<int> cols = parseInteger(text.substr(x + 1));
+  const std::optional<int> rows = parseInt(text.substr(0, x));
+  const std::optional<int> cols = parseInt(text.substr(x + 1));
   if (!rows || !cols || *rows < core::OptionLimits::kMinGridSide || *cols < core::OptionLimits::kMinGridSide) {
     return std::nullopt;
   }
@@ -230,7 +212,7 @@ void parseToolCommandLine(int argc, char** argv, ToolOptions* options, std::vect
     }
     const std::string value = argv[++i];
     const auto positive = [&](double* out) {
-      const std::optional<double> number = parseNumber(value);
+      const std::optional<double> number = parseDouble(value);
       if (!number || *number <= 0) {
         errors->push_back(flag + " " + value + ": expected a number > 0");
       } else {
@@ -269,7 +251,7 @@ void parseToolCommandLine(int argc, char** argv, ToolOptions* options, std::vect
     } else if (flag == "--reference-tolerance") {
       positive(&options->reference.tolerance_m);
     } else if (flag == "--min-timing") {
-      const std::optional<double> number = parseNumber(value);
+      const std::optional<double> number = parseDouble(value);
       if (!number || *number < 0) errors->push_back(flag + " " + value + ": expected a number >= 0");
       if (number) options->min_timing_s = *number;
     } else if (flag == "--csv") {
@@ -289,7 +271,7 @@ void parseToolCommandLine(int argc, char** argv, ToolOptions* options, std::vect
     } else if (flag == "--substeps-list") {
       options->substep_counts.clear();
       for (const std::string& item : splitList(value)) {
-        const std::optional<int> count = parseInteger(item);
+        const std::optional<int> count = parseInt(item);
         if (!count || *count < 1 || *count > core::OptionLimits::kMaxSubsteps) {
           errors->push_back("--substeps-list: '" + item + "' is not a substep count in [1, 10000]");
         } else {

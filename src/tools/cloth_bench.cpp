@@ -13,6 +13,7 @@
 #include "cloth_sim/io/scene_file.h"
 
 #include "accuracy_tool.h"
+#include "number_parsing.h"
 #include "bench_stats.h"
 #include "scene_override.h"
 #ifdef CLOTH_SIM_HAVE_BULLET
@@ -109,6 +110,8 @@ all its frames too); only the timings leave the warm-up out.
 
 // ---- command line --------------------------------------------------------------------------------------------------
 
+using cloth_sim::bench::parseDouble;
+using cloth_sim::bench::parseInt;
 using cloth_sim::bench::SceneOverride;
 
 /// Everything the command line says, parsed once.
@@ -124,26 +127,6 @@ struct BenchOptions {
   std::optional<double> stop_above_strain;  ///< set only by --stop-above-strain
   bool help = false;
 };
-
-std::optional<int> parseInt(const std::string& text) {
-  int value = 0;
-  const char* end = text.data() + text.size();
-  const auto [ptr, ec] = std::from_chars(text.data(), end, value);
-  if (ec != std::errc() || ptr != end) return std::nullopt;
-  return value;
-}
-
-/// A finite number spanning the whole text (stod: libstdc++ before GCC 11 has no from_chars for double).
-std::optional<double> parseDouble(const std::string& text) {
-  try {
-    std::size_t used = 0;
-    const double value = std::stod(text, &used);
-    if (used != text.size() || !std::isfinite(value)) return std::nullopt;
-    return value;
-  } catch (const std::exception&) {
-    return std::nullopt;
-  }
-}
 
 /// Parses a count flag's value into *out, which must be at least `minimum`.
 void parseCount(const std::string& flag, const std::string& text, int minimum, int* out,
@@ -479,9 +462,13 @@ std::string toJson(const BenchOptions& options, const core::SceneOptions& scene,
       .add("side", r.side)
       .add("rows", scene.rows)
       .add("cols", scene.cols)
-      .add("integrator", r.integrator)
-      .add("substeps", scene.substeps)
-      .add("iterations", r.iterations)
+      .add("integrator", r.integrator);
+  if (scene.autoSubsteps()) {
+    json.add("substeps", core::kAutoSubstepsName);
+  } else {
+    json.add("substeps", scene.substeps);
+  }
+  json.add("iterations", r.iterations)
       .add("stiffness", r.stiffness)
       .add("dynamic", options.dynamic)
       .add("frames", options.frames)
@@ -513,7 +500,8 @@ std::string describeRun(const BenchOptions& options, const core::SceneOptions& s
   std::ostringstream out;
   out << "cloth_bench: " << (options.bullet ? "bullet" : "cloth_sim") << " " << scene.name << " " << scene.rows << "x"
       << scene.cols << (options.bullet ? "" : std::string(" ") + core::integratorName(scene.integrator))
-      << " substeps " << scene.substeps << (options.dynamic ? " dynamic" : "") << ", " << options.frames
+      << " substeps " << (scene.autoSubsteps() ? std::string(core::kAutoSubstepsName) : std::to_string(scene.substeps))
+      << (options.dynamic ? " dynamic" : "") << ", " << options.frames
       << " frames";
   return out.str();
 }
