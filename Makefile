@@ -173,7 +173,7 @@ sanitize-run: build
 	export ASAN_OPTIONS="log_path=$$logs/asan:detect_leaks=1:detect_stack_use_after_return=1"; \
 	export UBSAN_OPTIONS="log_path=$$logs/ubsan:print_stacktrace=1:halt_on_error=1"; \
 	export LSAN_OPTIONS="suppressions=$(REPO)/test/fuzz/lsan.supp"; \
-	source $(WS)/devel/setup.bash; rc=0; \
+	set +u; source $(WS)/devel/setup.bash; set -u; rc=0; \
 	echo "==> sanitize: core gtests"; \
 	$(WS)/devel/lib/cloth_sim/cloth_sim_core_tests || rc=1; \
 	for t in $(SANITIZE_ROSTESTS); do \
