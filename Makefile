@@ -178,8 +178,8 @@ sanitize-run: build
 	$(WS)/devel/lib/cloth_sim/cloth_sim_core_tests || rc=1; \
 	for t in $(SANITIZE_ROSTESTS); do \
 	  echo "==> sanitize: rostest cloth_sim $$t"; \
-	  rostest --text cloth_sim $$t > $$logs/rostest-$${t%.test}.out 2>&1 || { rc=1; tail -30 $$logs/rostest-$${t%.test}.out; }; \
-	  grep -E '^(SUMMARY|\[ *(OK|FAILED|PASSED) *\])' $$logs/rostest-$${t%.test}.out || true; \
+	  rostest cloth_sim $$t > $$logs/rostest-$${t%.test}.out 2>&1 || { rc=1; tail -30 $$logs/rostest-$${t%.test}.out; }; \
+	  grep -E '^ \* (RESULT|TESTS|ERRORS|FAILURES):' $$logs/rostest-$${t%.test}.out || true; \
 	done; \
 	reports=$$(find $$logs -name 'asan*' -o -name 'ubsan*'); \
 	if [ -n "$$reports" ]; then echo "sanitize: sanitizer reports:"; for f in $$reports; do echo "--- $$f"; head -40 "$$f"; done; rc=1; fi; \
