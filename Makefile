@@ -17,7 +17,7 @@
 #   make sanitize  the core gtests and the node under ASan + UBSan in their own workspace ($(WS)-sanitize),
 #                running the gtests and the rostests in SANITIZE_ROSTESTS; non-zero on any report.
 #                Not part of make test (a second full build)
-#   make clean   remove the private workspace and the demo outputs
+#   make clean   remove the private workspaces (also the sanitize one), the demo outputs and the fuzz build
 #
 # Cloned into an existing catkin workspace's src/ instead? Then catkin_make there as usual: nothing in
 # the package assumes the private workspace (or pass WS=/path/to/that/workspace to these targets).
@@ -187,4 +187,4 @@ sanitize-run: build
 	exit $$rc
 
 clean:
-	rm -rf $(WS) $(WS)-example $(DEMO_DIR)
+	rm -rf $(WS) $(WS)-example $(SANITIZE_WS) $(DEMO_DIR) $(FUZZ_DIR)
