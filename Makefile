@@ -176,6 +176,8 @@ sanitize-run: build
 	set +u; source $(WS)/devel/setup.bash; set -u; rc=0; \
 	echo "==> sanitize: core gtests"; \
 	$(WS)/devel/lib/cloth_sim/cloth_sim_core_tests || rc=1; \
+	echo "==> sanitize: conversions gtests"; \
+	$(WS)/devel/lib/cloth_sim/cloth_sim_conversions_tests || rc=1; \
 	for t in $(SANITIZE_ROSTESTS); do \
 	  echo "==> sanitize: rostest cloth_sim $$t"; \
 	  rostest cloth_sim $$t > $$logs/rostest-$${t%.test}.out 2>&1 || { rc=1; tail -30 $$logs/rostest-$${t%.test}.out; }; \
