@@ -19,7 +19,13 @@
 #                (make accuracy ACCURACY_ARGS=--reuse rewrites the page from them without running again)
 #   make pictures  record every scene (or SCENES="flag ball") and render it in rviz under Xvfb into
 #                doc/images/rviz_<scene>.png, plus the demo's picture as doc/images/demo_drape.png
-#   make clean   remove the private workspace and the demo outputs
+#   make fuzz    build the libFuzzer targets of test/fuzz with clang (outside catkin) and run each for
+#                FUZZ_SECONDS (60) s: executions, execs/s, coverage, findings; non-zero on any finding.
+#                Corpora and findings stay in .build/fuzz (FUZZ_DIR)
+#   make sanitize  the core gtests and the node under ASan + UBSan in their own workspace ($(WS)-sanitize),
+#                running the gtests and the rostests in SANITIZE_ROSTESTS; non-zero on any report.
+#                Not part of make test (a second full build)
+#   make clean   remove the private workspaces (also the sanitize one), the demo outputs and the fuzz build
 #
 # Cloned into an existing catkin workspace's src/ instead? Then catkin_make there as usual: nothing in
 # the package assumes the private workspace (or pass WS=/path/to/that/workspace to these targets).
@@ -27,7 +33,7 @@
 SHELL := /bin/bash
 .SHELLFLAGS := -eu -o pipefail -c
 .DEFAULT_GOAL := build
-.PHONY: deps build test demo bench accuracy load pictures clean help
+.PHONY: deps build test demo bench accuracy load pictures clean help fuzz sanitize sanitize-run
 
 # Debian 12's own ROS 1 packages (no /opt/ros); this is the one list of what the project needs.
 DEB_PACKAGES := build-essential cmake pkg-config \
@@ -44,6 +50,9 @@ DEB_PACKAGES := build-essential cmake pkg-config \
 # the package: package.xml does not list it).
 # Only `make pictures` needs these (rviz screenshots under Xvfb with ImageMagick's import).
 PICTURE_PACKAGES := imagemagick
+# Only `make fuzz` needs these: clang with libFuzzer and the sanitizer runtimes, llvm-symbolizer for
+# readable stacks, gencpp for the message headers the conversions target includes.
+FUZZ_PACKAGES := clang libclang-rt-14-dev llvm-14 python3-gencpp
 
 REPO := $(patsubst %/,%,$(dir $(abspath $(lastword $(MAKEFILE_LIST)))))
 # One workspace per clone (keyed by the clone's absolute path), outside the repo: rosrun searches a
@@ -150,5 +159,51 @@ pictures: demo
 	@cp $(DEMO_DIR)/$(SCENE).png $(REPO)/doc/images/demo_$(SCENE).png
 	@bash -c 'source $(WS)/devel/setup.bash && exec bash $(REPO)/scripts/make_pictures.sh $(REPO)/doc/images $(SCENES)'
 
+# ---- make fuzz: the libFuzzer targets of test/fuzz, FUZZ_SECONDS each ---------------------------------
+FUZZ_SECONDS ?= 60
+FUZZ_DIR ?= $(REPO)/.build/fuzz
+fuzz:
+	@$(MAKE) --no-print-directory deps DEB_PACKAGES="$(FUZZ_PACKAGES)"
+	@echo "==> fuzz: building the targets in $(FUZZ_DIR)/build (clang, -j$(JOBS))"
+	@CC=clang CXX=clang++ cmake -S $(REPO)/test/fuzz -B $(FUZZ_DIR)/build -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+	  2>&1 | $(FILTER_CMAKE)
+	@cmake --build $(FUZZ_DIR)/build -j$(JOBS) 2>&1 | { grep -v -E '^\[ *[0-9]+%\]|^g?make\[[0-9]+\]: (Entering|Leaving)' || true; }
+	@bash $(REPO)/test/fuzz/run_fuzzers.sh $(FUZZ_DIR) $(FUZZ_SECONDS)
+
+# ---- make sanitize: the core gtests and the node under AddressSanitizer + UndefinedBehaviorSanitizer ----
+# A workspace of its own (instrumented objects must not mix with the normal build), built by the same
+# build logic with the flags appended to catkin_make's CMake arguments. Every report is written to a
+# log file (a node's report would otherwise vanish into rostest's log) and any log fails the target.
+SANITIZE_WS ?= $(WS)-sanitize
+SANITIZE_FLAGS := -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=undefined
+SANITIZE_ROSTESTS ?= services.test interaction.test
+sanitize:
+	@$(MAKE) --no-print-directory sanitize-run WS=$(SANITIZE_WS) JOBS=$(JOBS) \
+	  SANITIZE_ROSTESTS="$(SANITIZE_ROSTESTS)"
+
+sanitize-run: CATKIN_MAKE += '-DCMAKE_CXX_FLAGS=$(SANITIZE_FLAGS)' '-DCMAKE_EXE_LINKER_FLAGS=$(SANITIZE_FLAGS)' \
+  '-DCMAKE_SHARED_LINKER_FLAGS=$(SANITIZE_FLAGS)'
+sanitize-run: build
+	@echo "==> sanitize: building the test executables in $(WS)"
+	@cd $(WS) && $(CATKIN_MAKE) -j$(JOBS) -l$(JOBS) tests 2>&1 | $(FILTER_CMAKE)
+	@logs=$(WS)/sanitizer_logs; rm -rf $$logs; mkdir -p $$logs; \
+	export ASAN_OPTIONS="log_path=$$logs/asan:detect_leaks=1:detect_stack_use_after_return=1"; \
+	export UBSAN_OPTIONS="log_path=$$logs/ubsan:print_stacktrace=1:halt_on_error=1"; \
+	export LSAN_OPTIONS="suppressions=$(REPO)/test/fuzz/lsan.supp"; \
+	set +u; source $(WS)/devel/setup.bash; set -u; rc=0; \
+	echo "==> sanitize: core gtests"; \
+	$(WS)/devel/lib/cloth_sim/cloth_sim_core_tests || rc=1; \
+	echo "==> sanitize: conversions gtests"; \
+	$(WS)/devel/lib/cloth_sim/cloth_sim_conversions_tests || rc=1; \
+	for t in $(SANITIZE_ROSTESTS); do \
+	  echo "==> sanitize: rostest cloth_sim $$t"; \
+	  rostest cloth_sim $$t > $$logs/rostest-$${t%.test}.out 2>&1 || { rc=1; tail -30 $$logs/rostest-$${t%.test}.out; }; \
+	  grep -E '^ \* (RESULT|TESTS|ERRORS|FAILURES):' $$logs/rostest-$${t%.test}.out || true; \
+	done; \
+	reports=$$(find $$logs -name 'asan*' -o -name 'ubsan*'); \
+	if [ -n "$$reports" ]; then echo "sanitize: sanitizer reports:"; for f in $$reports; do echo "--- $$f"; head -40 "$$f"; done; rc=1; fi; \
+	if [ $$rc = 0 ]; then echo "==> sanitize: clean (no ASan/UBSan/LSan report, all tests passed)"; fi; \
+	exit $$rc
+
 clean:
-	rm -rf $(WS) $(WS)-example $(DEMO_DIR)
+	rm -rf $(WS) $(WS)-example $(SANITIZE_WS) $(DEMO_DIR) $(FUZZ_DIR)

@@ -52,7 +52,9 @@ class ClothViewer {
  private:
   void onState(const cloth_sim::ClothState::ConstPtr& message) {
     const ros::Time stamp = message->header.stamp;
-    const double since_s = (stamp - last_mesh_).toSec();
+    // In seconds as doubles: ros::Time's own difference throws (and would end the viewer) when a peer's
+    // stamp lies more than 2^31 s from the last one drawn.
+    const double since_s = stamp.toSec() - last_mesh_.toSec();
     if (!last_mesh_.isZero() && since_s >= 0.0 && since_s < mesh_period_s_) return;  // not due yet
     std::string error;
     if (!cloth_sim::fromStateMessage(*message, cloth_sim::core::OptionLimits::kMaxGridSide, &positions_m_, &error)) {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <sstream>
 
 namespace cloth_sim {
@@ -128,8 +129,9 @@ visualization_msgs::Marker toMeshMarker(const core::ClothGrid& grid, const Eigen
 
 bool fromStateMessage(const cloth_sim::ClothState& message, int max_side, Eigen::Matrix3Xd* positions_m,
                       std::string* error) {
+  // Compared as signed 64-bit: a max_side below 2 must refuse every grid, not wrap to 4 billion.
   const auto side_ok = [max_side](std::uint32_t side) {
-    return side >= 2 && side <= static_cast<std::uint32_t>(max_side);
+    return side >= 2 && static_cast<std::int64_t>(side) <= max_side;
   };
   if (!side_ok(message.rows) || !side_ok(message.cols)) {
     *error = "rows x cols = " + std::to_string(message.rows) + " x " + std::to_string(message.cols) +
