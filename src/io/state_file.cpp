@@ -139,7 +139,9 @@ class Reader {
   Eigen::Matrix3Xd getColumns(std::size_t columns) {
     need(3 * sizeof(double) * columns);
     Eigen::Matrix3Xd values(3, static_cast<Eigen::Index>(columns));
-    std::memcpy(values.data(), data_ + offset_, 3 * sizeof(double) * columns);
+    // An empty matrix has no storage (data() is null), and memcpy to null is undefined even for 0 bytes:
+    // every pinless scene's file has an empty pin section (found by fuzz_state_file under UBSan).
+    if (columns > 0) std::memcpy(values.data(), data_ + offset_, 3 * sizeof(double) * columns);
     offset_ += 3 * sizeof(double) * columns;
     return values;
   }
