@@ -8,7 +8,8 @@
 namespace cloth_sim::core {
 
 /// Everything an integrator advances, and nothing else. Forces, normals and contact data are scratch
-/// that is recomputed from this, so copying a ClothState is a complete snapshot (save/restore, rollback).
+/// that is recomputed from this, so copying a ClothState is what a rollback restores. A complete snapshot
+/// (SimulationSnapshot) adds the options, the inputs and the guard's memory.
 struct ClothState {
   Eigen::Matrix3Xd positions_m;         ///< 3 x N, world frame, m. Written by Integrator::step and contacts.
   Eigen::Matrix3Xd velocities_m_per_s;  ///< 3 x N, world frame, m/s. Written by Integrator::step and contacts.
