@@ -123,25 +123,31 @@ FrameEnvelope Simulation::frameEnvelope() const {
   // The fastest thing that can push the cloth: wind (with gusts), spheres, pins, pins travelling.
   const double gust = 1.0 + std::abs(options_.wind.gust_amplitude);
   const double wind_speed_m_per_s = options_.wind_enabled ? inputs_.wind_m_per_s.norm() * gust : 0.0;
-  double input_speed_m_per_s = wind_speed_m_per_s;
+  double sphere_speed_m_per_s = 0.0;
   for (const SphereCollider& sphere : options_.colliders.spheres) {
-    input_speed_m_per_s = std::max(input_speed_m_per_s, sphere.velocity_m_per_s.norm() +
-                                                            kTwoPi * sphere.oscillation_amplitude_m.norm() /
-                                                                sphere.oscillation_period_s);
+    sphere_speed_m_per_s = std::max(sphere_speed_m_per_s, sphere.velocity_m_per_s.norm() +
+                                                              kTwoPi * sphere.oscillation_amplitude_m.norm() /
+                                                                  sphere.oscillation_period_s);
   }
-  input_speed_m_per_s = std::max(input_speed_m_per_s,
-                                 kTwoPi * options_.pin_motion_amplitude_m.norm() / options_.pin_motion_period_s);
-  if (options_.pin_travel_time_s > 0.0 && inputs_.pin_travel_m.cols() > 0) {
-    input_speed_m_per_s = std::max(input_speed_m_per_s, kPinTravelPeakSpeedFactor *
-                                                            inputs_.pin_travel_m.colwise().norm().maxCoeff() /
-                                                            options_.pin_travel_time_s);
+  double pin_speed_m_per_s = kTwoPi * options_.pin_motion_amplitude_m.norm() / options_.pin_motion_period_s;
+  if (options_.pin_travel_time_s > 0.0 && inputs_.pin_travel_m.cols() > 0 &&
+      state_.time_s < options_.pin_travel_time_s) {
+    pin_speed_m_per_s += kPinTravelPeakSpeedFactor * inputs_.pin_travel_m.colwise().norm().maxCoeff() /
+                         options_.pin_travel_time_s;
   }
+  const double kinematic_speed_m_per_s = std::max(sphere_speed_m_per_s, pin_speed_m_per_s);
+  const double input_speed_m_per_s = std::max(wind_speed_m_per_s, kinematic_speed_m_per_s);
   const double extent_m = std::hypot(options_.width_m, options_.height_m) + 2.0 * options_.pin_motion_amplitude_m.norm();
   // The energy scale a frame is measured against: the weight over the scene's extent, the kinetic energy of
   // its fastest input, and the motion and stretch the cloth already has.
+  double grasp_energy_J = 0.0;  // what the hands hold: their springs' energy and their forces over the extent
+  for (const Grasp& grasp : inputs_.grasps) {
+    grasp_energy_J += 0.5 * grasp.stiffness_N_per_m * (grasp.target_m - state_.positions_m.col(grasp.particle)).squaredNorm() +
+                      grasp.extra_force_N.norm() * extent_m;
+  }
   const double scene_energy_J =
       total_mass_kg * (gravity_m_per_s2 * extent_m + 0.5 * input_speed_m_per_s * input_speed_m_per_s) +
-      energies_now.kinetic_J + energies_now.elastic_J;
+      energies_now.kinetic_J + energies_now.elastic_J + grasp_energy_J;
   // The wind's work in a frame: at most its largest force times the fastest the cloth and air move.
   const double cloth_speed_m_per_s = state_.velocities_m_per_s.colwise().norm().maxCoeff();
   const double triangles = static_cast<double>(grid_.triangles.size() / 3);
@@ -154,8 +160,31 @@ FrameEnvelope Simulation::frameEnvelope() const {
                                     : 0.5 * options_.wind.air_density_kg_per_m3 * options_.wind.drag_coefficient *
                                           0.5 * cell_area_m2 * relative_speed_m_per_s * relative_speed_m_per_s);
   }
-  envelope.energy_allowance_J = StabilityGuard::kEnergySlackFraction * scene_energy_J +
-                                options_.frameDuration_s() * wind_force_N * (wind_speed_m_per_s + cloth_speed_m_per_s) +
+  // Pins and spheres move particles by hand, against the springs: in a frame a moved particle can be
+  // pushed by d = speed x frame against the load its springs already carry (at most their stiffness times
+  // the strain times the longest rest length) plus the stretch of d itself, and a sphere can throw a
+  // particle at twice its speed.
+  const double frame_s = options_.frameDuration_s();
+  const double particle_stiffness_N_per_m = bound_.omega_max_rad_per_s * bound_.omega_max_rad_per_s * mass_kg_.maxCoeff();
+  const std::vector<double>& all_rest_m = grid_.springsOf(SpringKind::kStructural).rest_length_m;
+  const double longest_m = all_rest_m.empty() ? 0.0 : *std::max_element(all_rest_m.begin(), all_rest_m.end());
+  const auto kinematicWork_J = [&](double speed_m_per_s, double particles) {
+    const double travel_m = speed_m_per_s * frame_s;
+    return particles * particle_stiffness_N_per_m * travel_m * (envelope.strain_before * longest_m + travel_m);
+  };
+  double kinematic_work_J = kinematicWork_J(pin_speed_m_per_s, static_cast<double>(inputs_.pins.size()));
+  for (const SphereCollider& sphere : options_.colliders.spheres) {
+    const double speed_m_per_s = sphere.velocity_m_per_s.norm() +
+                                 kTwoPi * sphere.oscillation_amplitude_m.norm() / sphere.oscillation_period_s;
+    const double reach_m = sphere.radius_m + speed_m_per_s * frame_s + options_.contact.depth_m + cloth_speed_m_per_s * frame_s;
+    const Eigen::Vector3d center_m = sphere.centerAt(state_.time_s);
+    const double near = static_cast<double>(
+        ((state_.positions_m.colwise() - center_m).colwise().norm().array() <= reach_m).count());
+    kinematic_work_J += kinematicWork_J(speed_m_per_s, near) +
+                        near * 0.5 * mass_kg_.maxCoeff() * 4.0 * speed_m_per_s * speed_m_per_s;
+  }
+  envelope.energy_allowance_J = StabilityGuard::kEnergySlackFraction * scene_energy_J + kinematic_work_J +
+                                frame_s * wind_force_N * (wind_speed_m_per_s + cloth_speed_m_per_s) +
                                 0.5 * total_mass_kg * kNegligibleSpeed_m_per_s * kNegligibleSpeed_m_per_s +
                                 kRoundingEnergyFraction * std::abs(envelope.energy_before_J);
   // The largest force one structural spring can be made to carry: the whole weight, every hand, the wind.
@@ -169,7 +198,7 @@ FrameEnvelope Simulation::frameEnvelope() const {
   const double shortest_m = rest_m.empty() ? 0.0 : *std::min_element(rest_m.begin(), rest_m.end());
   const double spring_capacity_N_per_strain = structural.enabled ? structural.stiffness_N_per_m * shortest_m : 0.0;
   // Pins and colliders move particles by hand: in a frame they can stretch a spring by their travel.
-  const double kinematic_strain = shortest_m > 0.0 ? input_speed_m_per_s * options_.frameDuration_s() / shortest_m : 0.0;
+  const double kinematic_strain = shortest_m > 0.0 ? kinematic_speed_m_per_s * frame_s / shortest_m : 0.0;
   envelope.strain_allowance = spring_capacity_N_per_strain > 0.0
                                   ? largest_force_N / spring_capacity_N_per_strain + kinematic_strain
                                   : std::numeric_limits<double>::infinity();
@@ -179,16 +208,18 @@ FrameEnvelope Simulation::frameEnvelope() const {
 bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps, FrameReport* report) {
   std::string problem;
   for (int attempt = 0; attempt < guard_.attempts(options_.guard_retries); ++attempt) {
-    report->substeps_used = guard_.substeps(first_substeps, attempt);
+    const int substeps = std::min(guard_.substeps(first_substeps, attempt), OptionLimits::kMaxSubsteps);
+    if (attempt > 0 && substeps == report->substeps_used) break;  // at the cap: the same again would fail again
+    report->substeps_used = substeps;
     report->steps = StepReport();
     report->contacts = integrateFrame(report->substeps_used, &report->steps);
     report->max_strain = maxStructuralStrain();
     problem = guard_.check(state_, totalEnergy_J(), report->max_strain, envelope);
     // `auto` also refines a frame that first stretches the cloth past the warning (a hem caught on a
-    // table's edge): more substeps follow the impact more closely. Only at the crossing, so a cloth a
-    // hand keeps stretched pays once; the last attempt is kept as it is.
-    const bool last_attempt = attempt + 1 == guard_.attempts(options_.guard_retries);
-    if (problem.empty() && options_.autoSubsteps() && !last_attempt && report->max_strain > kStrainWarning &&
+    // table's edge): more substeps follow the impact more closely. Only at the crossing and only one
+    // doubling, so a cloth a hand stretches on purpose pays one recomputation and 2x from then on.
+    const bool first_of_several = attempt == 0 && guard_.attempts(options_.guard_retries) > 1;
+    if (problem.empty() && options_.autoSubsteps() && first_of_several && report->max_strain > kStrainWarning &&
         envelope.strain_before <= kStrainWarning) {
       problem = "over-stretched to " + std::to_string(report->max_strain);
     } else if (problem.empty()) {
@@ -246,7 +277,7 @@ FrameReport Simulation::advanceFrame() {
     report.reason = reason.str();
     return report;
   }
-  ++state_.frame;
+  if (!report.scene_reset) ++state_.frame;  // a reset scene starts again at frame 0, time 0
   if (!report.recovery.empty()) {
     reason << report.recovery;
   } else if (report.recomputed) {
@@ -281,6 +312,7 @@ bool Simulation::recover(const FrameEnvelope& envelope, FrameReport* report) {
   // Not even that: the state itself is beyond saving (or an input is). Start the scene again, keeping the
   // tuning and the wind, rather than stay frozen.
   reset();
+  report->scene_reset = true;
   what << "the scene was reset to its initial state (grasps released)";
   report->recovery = what.str();
   report->max_strain = maxStructuralStrain();

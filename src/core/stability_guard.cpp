@@ -105,7 +105,15 @@ StiffnessBound estimateStiffnessBound(const SceneOptions& options, const ClothGr
     uniform_damping_N_s_per_m += kTrianglesPerParticle * options.wind.air_density_kg_per_m3 *
                                  options.wind.drag_coefficient * 0.5 * cell_area_m2 * speed_m_per_s;
   }
+  double ratio_min_s = std::numeric_limits<double>::infinity();
+  for (const SpringOptions& spring : options.springs) {
+    if (spring.enabled && spring.stiffness_N_per_m > 0.0) {
+      ratio_min_s = std::min(ratio_min_s, spring.damping_N_s_per_m / spring.stiffness_N_per_m);
+    }
+  }
   StiffnessBound bound;
+  bound.damping_per_stiffness_min_s = std::isinf(ratio_min_s) ? 0.0 : ratio_min_s;
+  bound.uniform_damping_min_per_s = options.air_damping_N_s_per_m / mass_kg.maxCoeff();
   bound.omega_max_rad_per_s = std::sqrt(kappa_max);
   bound.damping_max_per_s = gamma_max;
   bound.uniform_damping_per_s = uniform_damping_N_s_per_m / smallest_mass_kg;
@@ -115,6 +123,13 @@ StiffnessBound estimateStiffnessBound(const SceneOptions& options, const ClothGr
 double stableStepLimit_s(IntegratorKind kind, const StiffnessBound& bound) {
   if (kind == IntegratorKind::kImplicitEuler) return std::numeric_limits<double>::infinity();
   const double kappa_max = bound.omega_max_rad_per_s * bound.omega_max_rad_per_s;
+  // Nothing to resolve (no springs, no damping): every step is stable.
+  if (kappa_max == 0.0 && bound.damping_max_per_s + bound.uniform_damping_per_s == 0.0) {
+    return std::numeric_limits<double>::infinity();
+  }
+  // Forward Euler and midpoint are stable only through damping: a bound from above on it would promise
+  // too large a step, so they get the damping the fastest modes are sure to have.
+  const bool needs_damping = kind == IntegratorKind::kForwardEuler || kind == IntegratorKind::kMidpoint;
   // The fastest rate of the system sets the scale of the search.
   const double rate_per_s = std::max({bound.omega_max_rad_per_s, bound.damping_max_per_s + bound.uniform_damping_per_s,
                                       std::numeric_limits<double>::min()});
@@ -122,7 +137,8 @@ double stableStepLimit_s(IntegratorKind kind, const StiffnessBound& bound) {
   for (int sample = 1; sample <= kModeSamples; ++sample) {
     const double t = static_cast<double>(sample) / kModeSamples;
     const double kappa = t * kappa_max;
-    const double gamma = t * bound.damping_max_per_s + bound.uniform_damping_per_s;
+    const double gamma = needs_damping ? kappa * bound.damping_per_stiffness_min_s + bound.uniform_damping_min_per_s
+                                       : t * bound.damping_max_per_s + bound.uniform_damping_per_s;
     const double smallest_s = kSmallestStepFraction / rate_per_s;
     // Forward Euler's and midpoint's stability regions touch the imaginary axis only at 0: an undamped
     // oscillation grows at every step (by 1 + O(h^2) and 1 + O(h^4), below rounding for tiny h).

@@ -21,8 +21,8 @@ StiffnessBound undamped(double omega_rad_per_s) {
 
 TEST(StableStep, MatchesEachMethodsTheoreticalLimitOnAnUndampedOscillator) {
   constexpr double kOmega = 100.0;  // rad/s
-  // Symplectic Euler: h < 2 / omega. RK4: h < 2.785 / omega on the imaginary axis (|R(i y)| = 1 at
-  // y = 2 sqrt(2) = 2.828 for the full polynomial). Forward Euler and midpoint: no stable step.
+  // Symplectic Euler: h < 2 / omega. RK4: h < 2 sqrt(2) / omega = 2.83 / omega on the imaginary axis
+  // (|R(i y)| = 1 at y = 2 sqrt(2)). Forward Euler and midpoint: no stable step.
   EXPECT_NEAR(stableStepLimit_s(IntegratorKind::kSymplecticEuler, undamped(kOmega)), 2.0 / kOmega, 1e-5 / kOmega);
   EXPECT_NEAR(stableStepLimit_s(IntegratorKind::kRK4, undamped(kOmega)), 2.0 * std::sqrt(2.0) / kOmega, 1e-5 / kOmega);
   EXPECT_EQ(stableStepLimit_s(IntegratorKind::kForwardEuler, undamped(kOmega)), 0.0);
@@ -33,6 +33,7 @@ TEST(StableStep, MatchesEachMethodsTheoreticalLimitOnAnUndampedOscillator) {
 TEST(StableStep, DampingGivesForwardEulerAStepAndShrinksSymplecticEulers) {
   StiffnessBound bound = undamped(100.0);
   bound.uniform_damping_per_s = 20.0;
+  bound.uniform_damping_min_per_s = 20.0;
   // Forward Euler on s^2 + gamma s + kappa: |1 + h s|^2 = 1 - h gamma + h^2 kappa < 1 for h < gamma / kappa.
   EXPECT_NEAR(stableStepLimit_s(IntegratorKind::kForwardEuler, bound), 20.0 / 1e4, 1e-8);
   // Symplectic Euler: h^2 kappa + 2 h gamma < 4, h = (-gamma + sqrt(gamma^2 + 4 kappa)) / kappa.
@@ -120,6 +121,67 @@ TEST(AutoSubsteps, AWeightlessClothAtRestIsNotRejectedForRoundingGains) {
   }
 }
 
+TEST(StableStep, ForwardEulerGetsOnlyTheDampingItIsSureOfAndNoSpringsNeedNoSubsteps) {
+  SceneOptions o;
+  o.integrator = IntegratorKind::kForwardEuler;
+  o.springs[0].damping_N_s_per_m = 0.0;  // the fastest (structural) modes undamped
+  o.air_damping_N_s_per_m = 0.0;
+  Simulation undamped_structure(o);
+  const FrameReport report = undamped_structure.advanceFrame();
+  EXPECT_EQ(report.stable_step_s, 0.0);
+  EXPECT_NE(report.reason.find("use implicit_euler"), std::string::npos) << report.reason;
+
+  SceneOptions nothing;
+  nothing.integrator = IntegratorKind::kSymplecticEuler;
+  for (SpringOptions& spring : nothing.springs) spring.enabled = false;
+  nothing.air_damping_N_s_per_m = 0.0;
+  Simulation free_particles(nothing);
+  EXPECT_EQ(free_particles.advanceFrame().substeps_used, 1) << "no spring, no damping: one step is stable";
+}
+
+TEST(AutoSubsteps, PinsCarriedApartWithoutGravityAreNotRejected) {
+  // Moving pins do work against the springs: the guard's budget counts it (a healthy scene used to be
+  // rolled back and reset here over and over).
+  SceneOptions o;
+  o.rows = o.cols = 12;
+  o.gravity_m_per_s2.setZero();
+  o.pins = {"top_edge"};
+  o.pin_travel_time_s = 0.5;
+  Simulation probe(o);
+  for (int p : probe.pinnedParticles()) {
+    const Eigen::Vector3d rest = probe.grid().rest_positions_m.col(p);
+    o.pin_positions_m.push_back(Eigen::Vector3d(1.02 * rest.x(), rest.y(), rest.z()));
+  }
+  for (IntegratorKind kind : {IntegratorKind::kImplicitEuler, IntegratorKind::kSymplecticEuler}) {
+    o.integrator = kind;
+    Simulation sim(o);
+    for (int frame = 0; frame < 50; ++frame) {
+      const FrameReport report = sim.advanceFrame();
+      ASSERT_TRUE(report.stable) << integratorName(kind) << " frame " << frame << ": " << report.reason;
+      ASSERT_FALSE(report.recomputed) << integratorName(kind) << " frame " << frame << ": " << report.reason;
+    }
+    EXPECT_EQ(sim.state().frame, 50u);
+  }
+}
+
+TEST(AutoSubsteps, AHandStretchingTheClothCostsOneDoublingNotEight) {
+  SceneOptions o;
+  o.integrator = IntegratorKind::kSymplecticEuler;
+  Simulation sim(o);
+  GraspRequest hand;
+  hand.id = 1;
+  hand.particle = sim.grid().index(o.rows - 1, o.cols / 2);
+  hand.stiffness_N_per_m = 200.0;
+  hand.target_m = sim.state().positions_m.col(hand.particle) + Eigen::Vector3d(0.0, 0.0, -0.6);
+  std::string error;
+  ASSERT_TRUE(sim.grab(hand, &error)) << error;
+  for (int frame = 0; frame < 40; ++frame) ASSERT_TRUE(sim.advanceFrame().stable);
+  EXPECT_GT(sim.maxStructuralStrain(), Simulation::kStrainWarning) << "the hand really over-stretches it";
+  sim.release(1);
+  for (int frame = 0; frame < 20; ++frame) ASSERT_TRUE(sim.advanceFrame().stable);
+  EXPECT_LE(sim.guardMemory().auto_scale, 2);
+}
+
 TEST(Recovery, AfterThreeRollbacksItSwitchesToImplicitEulerAndMovesOn) {
   SceneOptions o;
   o.integrator = IntegratorKind::kRK4;
@@ -130,7 +192,9 @@ TEST(Recovery, AfterThreeRollbacksItSwitchesToImplicitEulerAndMovesOn) {
   for (int frame = 0; frame < GuardMemory::kRollbacksBeforeRecovery; ++frame) {
     const FrameReport report = sim.advanceFrame();
     recovery = report.recovery;
-    if (frame + 1 < GuardMemory::kRollbacksBeforeRecovery) EXPECT_FALSE(report.stable) << report.reason;
+    if (frame + 1 < GuardMemory::kRollbacksBeforeRecovery) {
+      EXPECT_FALSE(report.stable) << report.reason;
+    }
   }
   EXPECT_NE(recovery.find("implicit_euler"), std::string::npos) << recovery;
   EXPECT_EQ(sim.options().integrator, IntegratorKind::kImplicitEuler);

@@ -50,6 +50,7 @@ struct FrameReport {
   /// Non-empty when repeated rollbacks made the simulation recover by itself: what it did (switched to
   /// implicit Euler, or reset the scene). The node reports it as an ERROR.
   std::string recovery;
+  bool scene_reset = false;  ///< the recovery reset the scene (state at frame 0, time 0)
   /// The integrator's largest stable step for this scene's bound on its frequencies, s (infinite for
   /// implicit Euler) and the first computation's step divided by it: above 1 the step is past the
   /// method's stability limit, near 1 it is close to it.

@@ -31,11 +31,16 @@ struct StiffnessBound {
   double damping_max_per_s = 0.0;
   /// Damping every mode feels alike (air damping, the wind's drag), 1/s.
   double uniform_damping_per_s = 0.0;
+  /// Lower bounds, for the methods that need damping to be stable (forward Euler, midpoint): the smallest
+  /// damping-to-stiffness ratio c / k of the enabled spring kinds, s (0 if one has no damping: the
+  /// fastest mode may be made of those springs alone), and air damping over the heaviest particle, 1/s.
+  double damping_per_stiffness_min_s = 0.0;
+  double uniform_damping_min_per_s = 0.0;
 };
 
 /// Gershgorin bounds for the scene as it is now (options, grid, per-particle masses in kg, grasps in
 /// inputs). Each spring of stiffness k adds at most k to its two particles' diagonal blocks and k to the
-/// off-diagonal sum (the transverse term k (1 - L/l) of a stretched spring is below k until l > 2 L), so
+/// off-diagonal sum (the transverse term k (1 - L/l) of a stretched spring is below k), so
 /// lambda_max(M^-1 K) <= max_i 2 sum_{springs at i} k / m_i. O(springs); no solve.
 StiffnessBound estimateStiffnessBound(const SceneOptions& options, const ClothGrid& grid,
                                       const Eigen::VectorXd& mass_kg, const ClothInputs& inputs);
