@@ -35,8 +35,9 @@ constexpr IntegratorKind kAllIntegrators[] = {IntegratorKind::kForwardEuler, Int
 bool sameBits(double a, double b) { return std::memcmp(&a, &b, sizeof(double)) == 0; }
 
 bool sameMatrixBits(const Eigen::Matrix3Xd& a, const Eigen::Matrix3Xd& b) {
+  // memcmp on an empty matrix's null data() is undefined even for 0 bytes (UBSan, make sanitize).
   return a.rows() == b.rows() && a.cols() == b.cols() &&
-         std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0;
+         (a.size() == 0 || std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0);
 }
 
 bool sameBits(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {

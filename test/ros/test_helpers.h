@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <deque>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -41,25 +42,30 @@ class Monitor {
   using Ptr = typename M::ConstPtr;
   static constexpr std::size_t kKeep = 2000;
 
-  Monitor(ros::NodeHandle& nh, const std::string& topic, std::uint32_t queue_size = 100) {
-    subscriber_ = nh.subscribe<M>(topic, queue_size, [this](const Ptr& message) {
-      std::lock_guard<std::mutex> lock(mutex_);
-      messages_.push_back(message);
-      if (messages_.size() > kKeep) messages_.pop_front();
-      ++count_;
-      changed_.notify_all();
+  Monitor(ros::NodeHandle& nh, const std::string& topic, std::uint32_t queue_size = 100)
+      : history_(std::make_shared<History>()) {
+    // The callback holds the history, not the Monitor: a spinner thread may still be inside it when the
+    // Monitor goes out of scope (shutting a subscriber down does not wait for a running callback; ASan
+    // caught the write after free).
+    std::shared_ptr<History> history = history_;
+    subscriber_ = nh.subscribe<M>(topic, queue_size, [history](const Ptr& message) {
+      std::lock_guard<std::mutex> lock(history->mutex);
+      history->messages.push_back(message);
+      if (history->messages.size() > kKeep) history->messages.pop_front();
+      ++history->count;
+      history->changed.notify_all();
     });
   }
 
   /// Messages received so far (a marker for waitFor's `since`).
   std::uint64_t count() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return count_;
+    std::lock_guard<std::mutex> lock(history_->mutex);
+    return history_->count;
   }
 
   Ptr latest() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return messages_.empty() ? Ptr() : messages_.back();
+    std::lock_guard<std::mutex> lock(history_->mutex);
+    return history_->messages.empty() ? Ptr() : history_->messages.back();
   }
 
   /// The first message numbered >= since (0-based, in arrival order) for which predicate holds, waiting
@@ -68,14 +74,15 @@ class Monitor {
   Ptr waitFor(const std::function<bool(const M&)>& predicate, double timeout_s, std::uint64_t since = 0,
               std::uint64_t* index = nullptr) {
     const auto deadline = deadlineIn(timeout_s);
-    std::unique_lock<std::mutex> lock(mutex_);
+    History& h = *history_;
+    std::unique_lock<std::mutex> lock(h.mutex);
     std::uint64_t next = since;
     bool timed_out = false;
     while (true) {
-      const std::uint64_t first = count_ - messages_.size();
+      const std::uint64_t first = h.count - h.messages.size();
       if (next < first) next = first;  // older ones were dropped from the history
-      for (; next < count_; ++next) {
-        const Ptr& message = messages_[next - first];
+      for (; next < h.count; ++next) {
+        const Ptr& message = h.messages[next - first];
         if (predicate(*message)) {
           if (index) *index = next;
           return message;
@@ -83,7 +90,7 @@ class Monitor {
       }
       if (timed_out || !ros::ok()) return Ptr();
       // after a timeout, loop once more to look at what arrived meanwhile
-      timed_out = changed_.wait_until(lock, deadline) == std::cv_status::timeout;
+      timed_out = h.changed.wait_until(lock, deadline) == std::cv_status::timeout;
     }
   }
 
@@ -95,11 +102,14 @@ class Monitor {
   }
 
  private:
-  ros::Subscriber subscriber_;
-  mutable std::mutex mutex_;
-  std::condition_variable changed_;
-  std::deque<Ptr> messages_;
-  std::uint64_t count_ = 0;
+  struct History {
+    std::mutex mutex;
+    std::condition_variable changed;
+    std::deque<Ptr> messages;
+    std::uint64_t count = 0;
+  };
+  std::shared_ptr<History> history_;
+  ros::Subscriber subscriber_;  ///< after history_: unsubscribed first when the Monitor goes
 };
 
 /// Waits for the service (wall time) and calls it; false if it never appeared or the call failed.
