@@ -67,6 +67,7 @@ void Simulation::reset() {
   inputs_.grasps.clear();
   memory_ = GuardMemory();
   bound_stale_ = true;
+  energy_cache_valid_ = false;
   force_model_.refreshConstraints();
   state_.positions_m = grid_.rest_positions_m;
   state_.velocities_m_per_s.setZero(3, count);
@@ -115,9 +116,12 @@ int Simulation::firstSubsteps(double stable_step_s, std::string* warning) const 
 
 FrameEnvelope Simulation::frameEnvelope() const {
   FrameEnvelope envelope;
-  envelope.energy_before_J = totalEnergy_J();
-  const EnergyReport energies_now = energies();
-  envelope.strain_before = maxStructuralStrain();
+  // The last accepted frame's end is this frame's start: its energies and strain are reused unless
+  // something outside advanceFrame changed the state or the options since (one pass over the springs
+  // saved each way).
+  const EnergyReport energies_now = energy_cache_valid_ ? cached_energies_ : energies();
+  envelope.energy_before_J = totalEnergy_J(energies_now);
+  envelope.strain_before = energy_cache_valid_ ? cached_strain_ : maxStructuralStrain();
   const double total_mass_kg = mass_kg_.sum();
   const double gravity_m_per_s2 = options_.gravity_m_per_s2.norm();
   // The fastest thing that can push the cloth: wind (with gusts), spheres, pins, pins travelling.
@@ -214,7 +218,8 @@ bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps,
     report->steps = StepReport();
     report->contacts = integrateFrame(report->substeps_used, &report->steps);
     report->max_strain = maxStructuralStrain();
-    problem = guard_.check(state_, totalEnergy_J(), report->max_strain, envelope);
+    const EnergyReport energies_after = energies();
+    problem = guard_.check(state_, totalEnergy_J(energies_after), report->max_strain, envelope);
     // `auto` also refines a frame that first stretches the cloth past the warning (a hem caught on a
     // table's edge): more substeps follow the impact more closely. Only at the crossing and only one
     // doubling, so a cloth a hand stretches on purpose pays one recomputation and 2x from then on.
@@ -223,6 +228,9 @@ bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps,
         envelope.strain_before <= kStrainWarning) {
       problem = "over-stretched to " + std::to_string(report->max_strain);
     } else if (problem.empty()) {
+      cached_energies_ = energies_after;
+      cached_strain_ = report->max_strain;
+      energy_cache_valid_ = true;
       return true;
     }
     report->rejection = problem + " with " + std::to_string(report->substeps_used) + " substeps";
@@ -335,6 +343,7 @@ bool Simulation::retune(const SceneOptions& options, std::string* error) {
   }
   options_ = options;
   bound_stale_ = true;
+  energy_cache_valid_ = false;
   memory_ = GuardMemory();
   return true;
 }
@@ -343,6 +352,7 @@ void Simulation::setWindVelocity(const Eigen::Vector3d& wind_m_per_s) {
   inputs_.wind_m_per_s = wind_m_per_s;
   options_.wind_enabled = true;
   bound_stale_ = true;
+  energy_cache_valid_ = false;
 }
 
 bool Simulation::grab(const GraspRequest& request, std::string* error) {
@@ -373,6 +383,7 @@ bool Simulation::grab(const GraspRequest& request, std::string* error) {
     grasp.stiffness_N_per_m = stiffness;
     grasp.extra_force_N = request.extra_force_N;
     bound_stale_ = true;
+  energy_cache_valid_ = false;
     return true;
   }
   if (inputs_.grasps.size() >= kMaxGrasps) {
@@ -389,6 +400,7 @@ bool Simulation::grab(const GraspRequest& request, std::string* error) {
   // A held pin comes off its hook (paper: pins move only when grasped or driven); release() re-hooks it.
   inputs_.grasps.push_back(grasp);
   bound_stale_ = true;
+  energy_cache_valid_ = false;
   force_model_.refreshConstraints();
   return true;
 }
@@ -400,6 +412,7 @@ bool Simulation::release(std::uint32_t id) {
   const int particle = held->particle;
   grasps.erase(held);
   bound_stale_ = true;
+  energy_cache_valid_ = false;
   const auto pin = std::lower_bound(inputs_.pins.begin(), inputs_.pins.end(), particle);
   if (!inputs_.isGrasped(particle) && pin != inputs_.pins.end() && *pin == particle) {
     // Hang it on a hook where the hand let go: the pin's motion continues from there.
@@ -450,8 +463,9 @@ EnergyReport Simulation::energies() const {
   return report;
 }
 
-double Simulation::totalEnergy_J() const {
-  const EnergyReport energies = this->energies();
+double Simulation::totalEnergy_J() const { return totalEnergy_J(energies()); }
+
+double Simulation::totalEnergy_J(const EnergyReport& energies) const {
   double total_J = energies.kinetic_J + energies.potential_J;
   for (const Grasp& grasp : inputs_.grasps) {
     // A hand is a spring to its target plus a constant force: both conservative while the hand stays.
@@ -622,6 +636,7 @@ bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error)
   state_ = snapshot.state;
   memory_ = snapshot.guard;
   bound_stale_ = true;
+  energy_cache_valid_ = false;
   // Which pins hang on hooks follows from the grasps just restored (as grab and release keep it).
   force_model_.refreshConstraints();
   return true;

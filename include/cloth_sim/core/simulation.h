@@ -134,6 +134,8 @@ class Simulation {
   /// Kinetic, gravity, spring and grasp energy (a held particle's spring to its hand and the hand's
   /// constant force), J: what the guard holds a frame's energy budget against.
   double totalEnergy_J() const;
+  /// The same from energies() already computed (one pass over the springs instead of two).
+  double totalEnergy_J(const EnergyReport& energies) const;
   double maxStructuralStrain() const;
   /// Substeps the last frame was computed with (with `auto`, what the guard chose; before the first
   /// frame, what the first would take).
@@ -179,6 +181,11 @@ class Simulation {
   StiffnessBound bound_;     ///< of options_, masses and grasps; recomputed when bound_stale_
   bool bound_stale_ = true;
   int last_substeps_ = 1;
+  /// Energies and strain at the end of the last accepted frame (= the next frame's start) while
+  /// energy_cache_valid_; every change from outside (reset, restore, retune, grab, release, wind) clears it.
+  EnergyReport cached_energies_;
+  double cached_strain_ = 0.0;
+  bool energy_cache_valid_ = false;
   ClothState state_;
   ClothState frame_start_;               ///< rollback point, scratch
   Eigen::Matrix3Xd substep_start_positions_m_;  ///< scratch for the contact sweep
