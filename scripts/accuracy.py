@@ -23,6 +23,7 @@ import sys
 import time
 
 from accuracy_plot import read_csv  # the same CSV the plots read (scripts/ is on sys.path when run)
+from bench import machine_description  # one description of the machine for both reports
 
 PARETO_SCENES = ("hanging", "flag", "ball")
 # Grid side -> simulated seconds. The spans are short so that `make accuracy` stays within about 25 minutes on
@@ -177,17 +178,7 @@ def main(argv):
 
 
 def machine_line():
-    cpu = ""
-    try:
-        with open("/proc/cpuinfo") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    return "%s, %d CPUs, %s" % (cpu or platform.processor() or "unknown CPU", os.cpu_count() or 0, platform.platform())
-
+    return "%s, %s" % (machine_description(), platform.platform())
 
 def write_document(repo, pareto, realtime, spatial, stability_rows, stability_text, terms, commands, elapsed_min):
     out = []

@@ -58,6 +58,9 @@ constexpr int kDefaultFrames = 100;
 /// Frames run before timing starts: the first frames pay for allocations and cold caches.
 constexpr int kDefaultWarmupFrames = 5;
 constexpr int kDefaultBulletIterations = 1;
+/// Bullet has no `auto`: a scene that asks for it runs Bullet at one substep per frame (what the scenes'
+/// fixed count was before `auto`; --substeps sets it).
+constexpr int kDefaultBulletSubsteps = 1;
 
 /// The force-throughput loop runs at least this long and this many calls, so that one slow call (a page fault,
 /// a thread pool starting) does not decide the figure.
@@ -535,6 +538,7 @@ int main(int argc, char** argv) {
     printErrors(errors);
     return kExitUsage;
   }
+  if (options.bullet && scene.autoSubsteps()) scene.substeps = kDefaultBulletSubsteps;
 
   std::cerr << describeRun(options, scene) << "\n";
   try {
