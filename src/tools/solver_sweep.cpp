@@ -33,6 +33,10 @@ core::SceneOptions withSolverSetting(const core::SceneOptions& scene, const Solv
   return options;
 }
 
+double referenceCheckTolerance(double reference_tolerance) {
+  return std::max(reference_tolerance * kReferenceCheckFactor, core::OptionLimits::kMinSolverTolerance);
+}
+
 SpanRun solverReference(const core::SceneOptions& scene, int frames, double tolerance) {
   return simulateSpan(withSolverSetting(scene, SolverSetting{tolerance, kUncappedSolverIterations}), frames, true,
                       false);

@@ -48,6 +48,13 @@ struct SolverMeasurement {
   bool stable = false;               ///< ran every frame without diverging
 };
 
+/// The reference is checked against a solve this much tighter: where the two differ (a cloth that buckles or flutters
+/// turns rounding-level differences into millimetres), errors that small are the scene's sensitivity, not the solve's.
+constexpr double kReferenceCheckFactor = 1e-3;
+
+/// reference_tolerance x kReferenceCheckFactor, but not below the smallest tolerance the scene parser accepts.
+double referenceCheckTolerance(double reference_tolerance);
+
 /// The reference run: the scene with implicit Euler solved to `tolerance` without a cap, every frame recorded.
 SpanRun solverReference(const core::SceneOptions& scene, int frames, double tolerance = kReferenceSolverTolerance);
 

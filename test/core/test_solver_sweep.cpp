@@ -85,6 +85,18 @@ TEST(SolverSweep, AnUncappedSolveConvergesEveryFrameWhileATightCapStopsShortAndC
   EXPECT_GT(capped.error.max_m, uncapped.error.max_m);
 }
 
+TEST(SolverSweep, TheReferenceIsCheckedAgainstASolveAThousandTimesTighterThatTheParserAccepts) {
+  EXPECT_DOUBLE_EQ(referenceCheckTolerance(kReferenceSolverTolerance), 1e-12);
+  EXPECT_EQ(referenceCheckTolerance(1e-13), core::OptionLimits::kMinSolverTolerance);
+  // On a smooth short run the check and the reference agree far below what any setting swept is off by.
+  const core::SceneOptions scene = smallReleasedCloth();
+  const SpanRun reference = solverReference(scene, kFrames);
+  const SpanRun check = solverReference(scene, kFrames, referenceCheckTolerance(kReferenceSolverTolerance));
+  const SolverMeasurement loose = measureSolverSetting(scene, SolverSetting{1e-2, kUncappedSolverIterations}, kFrames,
+                                                       reference.trajectory, kNoMinTiming_s, kOneTimingRun);
+  EXPECT_LT(compareTrajectories(check.trajectory, reference.trajectory).max_m, 1e-3 * loose.error.max_m);
+}
+
 TEST(SolverSweep, ASettingChangesOnlyTheIntegratorAndTheSolveOfTheScene) {
   core::SceneOptions scene = smallReleasedCloth();
   scene.integrator = core::IntegratorKind::kRK4;
