@@ -315,11 +315,11 @@ def solver_section(solver, extra_keys):
         w("")
     w("**What the tables say.** A capped solve is a different cloth, not a cheaper one: at 64x64 a cap of 10 (the "
       "README's advice for a cloth at rest) puts the hanging cloth centimetres off while it falls and settles, at "
-      "two to three times the strain, and the cloth released flat about 0.2 m off at 29 %% strain instead of "
-      "7.8 %%; a cap of 50 still costs 5 mm (hanging) and 23 mm (released flat) at 64x64. The tolerance is the "
+      "two to three times the strain, and the cloth released flat about 0.2 m off at 29 % strain instead of "
+      "7.8 %; a cap of 50 still costs 5 mm (hanging) and 23 mm (released flat) at 64x64. The tolerance is the "
       "knob that trades smoothly: without a cap, 1e-2 keeps the hanging cloth within 2 um of the converged one at "
       "a quarter to a third of its cost, while 0.1 lets the released cloth over-stretch. The default (tolerance "
-      "1e-3, cap 100) stops at its cap on nearly every frame at 64x64 (0 to 4 %% converged) and still lands within "
+      "1e-3, cap 100) stops at its cap on nearly every frame at 64x64 (0 to 4 % converged) and still lands within "
       "25 um of the converged hanging cloth and inside the released cloth's few-millimetre spread (next "
       "paragraph). At 128x128 a converged step needs about 300 iterations (issue 13, doc/BENCHMARKS.md), three "
       "times that cap: run the sweep there before trusting it.\n")
