@@ -205,7 +205,8 @@ void parseToolCommandLine(int argc, char** argv, ToolOptions* options, std::vect
       }
     } else if (flag == "--caps") {
       for (const std::string& item : splitList(value)) {
-        const std::optional<int> cap = item == kNoCapName ? std::optional<int>(kUncappedSolverIterations) : parseInt(item);
+        const std::optional<int> cap =
+            item == kNoCapName ? std::optional<int>(kUncappedSolverIterations) : parseInt(item);
         if (!cap || *cap < 1 || *cap > kUncappedSolverIterations) {
           errors->push_back("--caps: '" + item + "' is not an iteration cap in [1, 10000] or '" + kNoCapName + "'");
         } else {

@@ -167,8 +167,8 @@ int runSolverSweep(const ToolOptions& options, const core::SceneOptions& given) 
             << " runs); converged: frames whose every solve reached its tolerance; error: |x - x_ref| of any "
                "particle, the largest over every frame (max) and at the last frame (final)\n";
   std::cout << "reference check: CG to " << formatNumber(check_tolerance) << " differs from the reference by "
-            << formatNumber(uncertainty.max_m) << " m at most over every frame (" << formatNumber(check.max_strain * kPercent)
-            << " % max strain" << (check.diverged ? ", DIVERGED " + check.stopped : "")
+            << formatNumber(uncertainty.max_m) << " m at most over every frame ("
+            << formatNumber(check.max_strain * kPercent) << " % max strain" << (check.diverged ? ", DIVERGED " + check.stopped : "")
             << "): errors that small are this scene's sensitivity to the last digits, not the solve's\n";
   printTable(std::cout, rows, results);
   std::cout << "\n" << recommendation(options, rows, results, uncertainty.max_m);
