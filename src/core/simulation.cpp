@@ -463,8 +463,6 @@ EnergyReport Simulation::energies() const {
   return report;
 }
 
-double Simulation::totalEnergy_J() const { return totalEnergy_J(energies()); }
-
 double Simulation::totalEnergy_J(const EnergyReport& energies) const {
   double total_J = energies.kinetic_J + energies.potential_J;
   for (const Grasp& grasp : inputs_.grasps) {

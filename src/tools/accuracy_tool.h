@@ -1,7 +1,9 @@
 // cloth_bench's measuring modes: --accuracy (cost against error of every integrator and substep count on a scene,
 // with a recommendation), --spatial (a grid against a finer grid of the same cloth), --stability-map (largest
-// stable step against stiffness and mass, beside theory) and --terms (what each force and collider term costs and
-// changes). doc/ACCURACY.md shows what they print; scripts/accuracy.py runs them for `make accuracy`.
+// stable step against stiffness and mass, beside theory), --terms (what each force and collider term costs and
+// changes) and --solver-sweep (implicit Euler's CG tolerance and cap against a converged solve). One file per mode
+// (mode_*.cpp, sharing accuracy_modes.h); doc/ACCURACY.md shows what they print; scripts/accuracy.py runs them for
+// `make accuracy`.
 #pragma once
 
 #include <string>

@@ -13,19 +13,15 @@
 #include "cloth_sim/io/scene_file.h"
 
 #include "accuracy_tool.h"
-#include "number_parsing.h"
+#include "bench_common.h"
 #include "bench_stats.h"
-#include "scene_override.h"
 #ifdef CLOTH_SIM_HAVE_BULLET
 #include "bullet_cloth.h"
 #endif
 
-#include <yaml-cpp/yaml.h>
-
 #include <Eigen/Core>
 
 #include <algorithm>
-#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstddef>
@@ -50,9 +46,9 @@ using Clock = std::chrono::steady_clock;
 
 // ---- constants -----------------------------------------------------------------------------------------------------
 
-constexpr int kExitOk = 0;
-constexpr int kExitRunFailed = 1;  ///< the run itself threw (a bug or an out-of-memory, not a bad command line)
-constexpr int kExitUsage = 2;      ///< bad flag, unknown key, invalid value, or --bullet without Bullet
+using cloth_sim::bench::kExitOk;
+using cloth_sim::bench::kExitRunFailed;
+using cloth_sim::bench::kExitUsage;  // also --bullet without Bullet
 
 constexpr int kDefaultFrames = 100;
 /// Frames run before timing starts: the first frames pay for allocations and cold caches.
@@ -73,10 +69,6 @@ constexpr double kFiniteBound_m = 1e300;
 constexpr double kMsPerS = 1e3;
 /// Significant digits of every number in the JSON line: timings are not more precise than this.
 constexpr int kJsonDigits = 6;
-
-/// The --dynamic cloth lies flat, rows running along +y from the top edge (as bullet_cloth.h's dynamic patch).
-const Eigen::Vector3d kDynamicUAxis{1.0, 0.0, 0.0};
-const Eigen::Vector3d kDynamicVAxis{0.0, 1.0, 0.0};
 
 constexpr const char* kStructuralStiffnessKey = "structural_stiffness";
 
@@ -105,7 +97,8 @@ Times a cloth scene and prints one JSON line on stdout.
 Other modes (each with its own --help): --accuracy (speed against accuracy of every integrator and substep count
 on a scene, with a recommendation), --stability-map (largest stable step of each integrator against stiffness and
 mass, beside theory), --spatial (error of a grid against a finer grid of the same cloth), --terms (cost and effect
-of each force and collider term of a scene).
+of each force and collider term of a scene), --solver-sweep (implicit Euler's solver tolerance and iteration cap:
+cost, CG iterations, converged share and error against a solve converged to 1e-9).
 
 Strain, finiteness and rollbacks are checked on every simulated frame, warm-up included (Bullet's run checks
 all its frames too); only the timings leave the warm-up out.
@@ -140,15 +133,6 @@ void parseCount(const std::string& flag, const std::string& text, int minimum, i
     return;
   }
   *out = *value;
-}
-
-void parseSceneSetting(const std::string& text, BenchOptions* options, std::vector<std::string>* errors) {
-  const std::size_t equals = text.find('=');
-  if (equals == std::string::npos || equals == 0) {
-    errors->push_back("--set " + text + ": expected KEY=VALUE");
-    return;
-  }
-  options->overrides.push_back({"--set", text.substr(0, equals), text.substr(equals + 1)});
 }
 
 /// Flags that are shorthand for one scene key: {flag, key}.
@@ -202,7 +186,7 @@ void parseCommandLine(int argc, char** argv, BenchOptions* options, std::vector<
     } else if (flag == "--scenes-dir") {
       options->scenes_dir = value;
     } else if (flag == "--set") {
-      parseSceneSetting(value, options, errors);
+      cloth_sim::bench::parseSceneSetting(value, &options->overrides, errors);
     } else if (flag == "--frames") {
       parseCount(flag, value, 1, &options->frames, errors);
     } else if (flag == "--warmup") {
@@ -231,25 +215,14 @@ void parseCommandLine(int argc, char** argv, BenchOptions* options, std::vector<
 
 // ---- scene ---------------------------------------------------------------------------------------------------------
 
-/// Lays the cloth flat at the height of its top edge, the two top corners pinned, so it swings down (the same
-/// start as bullet_cloth.h's dynamic patch: top-left corner at (-width / 2, 0, top edge height)).
-void makeDynamic(core::SceneOptions* scene) {
-  const double top_edge_z_m = scene->origin_m.z();
-  scene->u_axis = kDynamicUAxis;
-  scene->v_axis = kDynamicVAxis;
-  scene->origin_m = Eigen::Vector3d(-0.5 * scene->width_m, 0.0, top_edge_z_m);
-  scene->pins = {"top_left", "top_right"};
-}
-
 /// The scene file, then the overrides in order, then --dynamic; validated once at the end. False with every
 /// problem in *errors.
 bool buildScene(const BenchOptions& options, core::SceneOptions* scene, std::vector<std::string>* errors) {
-  if (!core::loadSceneFile(core::resolveScenePath(options.scene, options.scenes_dir), scene, errors)) return false;
-  for (const SceneOverride& entry : options.overrides) cloth_sim::bench::applyOverride(entry, scene, errors);
-  if (!errors->empty()) return false;
-  if (options.dynamic) makeDynamic(scene);
-  for (const std::string& problem : core::validateSceneOptions(*scene)) errors->push_back(problem);
-  return errors->empty();
+  if (!cloth_sim::bench::loadSceneWithOverrides(options.scene, options.scenes_dir, options.overrides, scene, errors)) {
+    return false;
+  }
+  if (options.dynamic) cloth_sim::bench::makeDynamic(scene);
+  return cloth_sim::bench::validateInto(*scene, errors);
 }
 
 // ---- measurements --------------------------------------------------------------------------------------------------

@@ -3,6 +3,7 @@
 #include "accuracy.h"
 
 #include "cloth_sim/core/simulation.h"
+#include "cloth_sim/core/stability_guard.h"
 
 #include "scene_test_util.h"
 
@@ -181,6 +182,45 @@ TEST(Accuracy, SingleModeTheoryGivesTheClosedFormStepLimits) {
   EXPECT_NEAR(h * h * kOmega * kOmega + 2.0 * h * kDampingRate, 4.0, 1e-2);
 }
 
+/// The core's guard (stability_guard.cpp: stability polynomials and Jury's conditions over a family of modes) and
+/// the tool's theory (accuracy.cpp: the spectral radius of each method's one-step matrix) are two derivations of
+/// the same limit, written apart. On one underdamped mode (stiffness omega^2, damping rate c, the same for every
+/// mode of the bound's family, so the stiffest binds) they must give the same largest stable step.
+core::StiffnessBound singleMode(double omega_rad_per_s, double damping_rate_per_s) {
+  core::StiffnessBound bound;
+  bound.omega_max_rad_per_s = omega_rad_per_s;
+  bound.uniform_damping_per_s = damping_rate_per_s;      // every mode: damping c (implicit, symplectic, rk4)
+  bound.uniform_damping_min_per_s = damping_rate_per_s;  // ... and for forward Euler and midpoint
+  return bound;
+}
+
+TEST(Accuracy, TheCoreGuardAndTheToolAgreeOnTheLargestStableStepOfEveryIntegrator) {
+  constexpr double kOmega = 100.0;
+  // The tool bisects to a relative width of 1e-3 from below, the core to 1e-6.
+  constexpr double kRelativeTolerance = 2e-3;
+  int compared = 0;
+  for (double damping_rate : {0.0, 5.0, 20.0, 60.0}) {
+    for (core::IntegratorKind kind : core::allIntegratorKinds()) {
+      const double tool_s = theoreticalStableStep(kind, kOmega, damping_rate);
+      const double core_s = core::stableStepLimit_s(kind, singleMode(kOmega, damping_rate));
+      const std::string what = std::string(core::integratorName(kind)) + ", c = " + std::to_string(damping_rate);
+      if (std::isinf(core_s)) {
+        EXPECT_EQ(kind, core::IntegratorKind::kImplicitEuler) << what;
+        EXPECT_GE(tool_s, theoreticalStepCap_s(kOmega)) << what << ": the core calls it unconditionally stable";
+        continue;
+      }
+      if (core_s == 0.0) {
+        EXPECT_EQ(tool_s, 0.0) << what << ": the core finds no stable step";
+        continue;
+      }
+      EXPECT_NEAR(tool_s, core_s, kRelativeTolerance * core_s) << what;
+      ++compared;
+    }
+  }
+  // Every explicit method with damping, symplectic Euler and rk4 without: 4 x 3 + 2 finite limits compared.
+  EXPECT_EQ(compared, 14);
+}
+
 TEST(Accuracy, LargestStableStepFindsTheEdgeOfAStableInterval) {
   constexpr double kEdge = 0.37;
   const double found = largestStableStep([](double h) { return h <= kEdge; }, 1e-3, 10.0);
@@ -207,6 +247,38 @@ TEST(ClothBenchAccuracy, PrintsTheReferenceEvidenceATableAndARecommendationOnATi
   EXPECT_NE(output.find("recommendation (cheapest with max error <= 0.001 m)"), std::string::npos) << output;
   EXPECT_NE(output.find("_integrator:="), std::string::npos) << output;
   EXPECT_NE(output.find("substeps: "), std::string::npos) << output;
+}
+
+TEST(ClothBenchSolverSweep, PrintsTheReferenceTheToleranceAndCapRowsAndARecommendationOnATinyScene) {
+  const std::string command = std::string(CLOTH_BENCH_EXECUTABLE) +
+                              " --solver-sweep --scene hanging --dynamic --set rows=5 --set cols=5 --seconds 0.1"
+                              " --min-timing 0 --tolerances 1e-2,1e-3 --caps 3,none 2>/dev/null";
+  FILE* pipe = popen(command.c_str(), "r");
+  ASSERT_NE(pipe, nullptr) << command;
+  std::string output;
+  char buffer[4096];
+  while (std::fgets(buffer, sizeof(buffer), pipe) != nullptr) output += buffer;
+  const int status = pclose(pipe);
+  EXPECT_EQ(status, 0) << command << "\n" << output;
+  EXPECT_NE(output.find("released flat 5x5"), std::string::npos) << output;
+  EXPECT_NE(output.find("reference       1e-09  none"), std::string::npos) << output;
+  EXPECT_NE(output.find("tolerance       0.001  none"), std::string::npos) << output;
+  EXPECT_NE(output.find("cap             0.001     3"), std::string::npos) << output;
+  // The scene's tolerance (1e-3) without a cap is a tolerance row already: not run again as a cap row.
+  EXPECT_EQ(output.find("cap             0.001  none"), std::string::npos) << output;
+  EXPECT_NE(output.find("recommendation (cheapest with max error <= 0.001 m)"), std::string::npos) << output;
+}
+
+TEST(ClothBenchSolverSweep, RefusesACapThatIsNotACount) {
+  const std::string command = std::string(CLOTH_BENCH_EXECUTABLE) + " --solver-sweep --caps 10,lots 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  ASSERT_NE(pipe, nullptr) << command;
+  std::string output;
+  char buffer[4096];
+  while (std::fgets(buffer, sizeof(buffer), pipe) != nullptr) output += buffer;
+  const int status = pclose(pipe);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << output;
+  EXPECT_NE(output.find("--caps: 'lots'"), std::string::npos) << output;
 }
 
 }  // namespace

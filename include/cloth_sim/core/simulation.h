@@ -132,9 +132,8 @@ class Simulation {
 
   EnergyReport energies() const;
   /// Kinetic, gravity, spring and grasp energy (a held particle's spring to its hand and the hand's
-  /// constant force), J: what the guard holds a frame's energy budget against.
-  double totalEnergy_J() const;
-  /// The same from energies() already computed (one pass over the springs instead of two).
+  /// constant force), J, from energies() already computed: what the guard holds a frame's energy budget
+  /// against.
   double totalEnergy_J(const EnergyReport& energies) const;
   double maxStructuralStrain() const;
   /// Substeps the last frame was computed with (with `auto`, what the guard chose; before the first

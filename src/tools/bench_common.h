@@ -1,0 +1,111 @@
+// What cloth_bench's timing run and its measuring modes (--accuracy, --spatial, --stability-map, --terms,
+// --solver-sweep) share: exit codes, command-line numbers, KEY=VALUE scene overrides read exactly as the node
+// reads a parameter, the scene built from them, and the "released flat" start (--dynamic).
+#pragma once
+
+#include "cloth_sim/core/options.h"
+#include "cloth_sim/io/scene_file.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <Eigen/Core>
+
+#include <charconv>
+#include <cmath>
+#include <exception>
+#include <optional>
+#include <string>
+#include <system_error>
+#include <vector>
+
+namespace cloth_sim::bench {
+
+constexpr int kExitOk = 0;
+constexpr int kExitRunFailed = 1;  ///< the run itself failed (a bug, out of memory, an output not written)
+constexpr int kExitUsage = 2;      ///< bad flag, unknown key, invalid value
+
+// ---- command-line numbers: the whole text must be the number -------------------------------------------------------
+
+inline std::optional<int> parseInt(const std::string& text) {
+  int value = 0;
+  const char* end = text.data() + text.size();
+  const auto [ptr, ec] = std::from_chars(text.data(), end, value);
+  if (ec != std::errc() || ptr != end) return std::nullopt;
+  return value;
+}
+
+/// A finite number spanning the whole text (stod: libstdc++ before GCC 11 has no from_chars for double).
+inline std::optional<double> parseDouble(const std::string& text) {
+  try {
+    std::size_t used = 0;
+    const double value = std::stod(text, &used);
+    if (used != text.size() || !std::isfinite(value)) return std::nullopt;
+    return value;
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+// ---- scene overrides -----------------------------------------------------------------------------------------------
+
+/// One scene key to overlay, from --set or from a flag that stands for one.
+struct SceneOverride {
+  std::string flag;  ///< what the user typed it as ("--set", "--rows"), for error messages
+  std::string key;
+  std::string value;
+};
+
+/// Reads "--set KEY=VALUE"'s value into *overrides; a text without KEY= goes to *errors.
+inline void parseSceneSetting(const std::string& text, std::vector<SceneOverride>* overrides,
+                              std::vector<std::string>* errors) {
+  const std::size_t equals = text.find('=');
+  if (equals == std::string::npos || equals == 0) {
+    errors->push_back("--set " + text + ": expected KEY=VALUE");
+    return;
+  }
+  overrides->push_back({"--set", text.substr(0, equals), text.substr(equals + 1)});
+}
+
+/// Overlays one KEY=VALUE: VALUE is YAML, so "20000", "[0, 1, 0]" and "implicit_euler" are a number, a list and a
+/// string as they would be in a scene file. Problems go to *errors.
+inline void applyOverride(const SceneOverride& entry, core::SceneOptions* scene, std::vector<std::string>* errors) {
+  YAML::Node map(YAML::NodeType::Map);
+  try {
+    map[entry.key] = YAML::Load(entry.value);
+  } catch (const YAML::Exception& e) {
+    errors->push_back(entry.flag + " " + entry.key + "=" + entry.value + ": not valid YAML: " + e.what());
+    return;
+  }
+  core::applySceneYaml(map, entry.flag, scene, errors);
+}
+
+/// The scene file (a built-in name resolved in scenes_dir, or a path), then the overrides in order. Not yet
+/// validated: the caller may change more (--dynamic, --grid) and validates once. False with the problems in *errors.
+inline bool loadSceneWithOverrides(const std::string& scene_name, const std::string& scenes_dir,
+                                   const std::vector<SceneOverride>& overrides, core::SceneOptions* scene,
+                                   std::vector<std::string>* errors) {
+  if (!core::loadSceneFile(core::resolveScenePath(scene_name, scenes_dir), scene, errors)) return false;
+  for (const SceneOverride& entry : overrides) applyOverride(entry, scene, errors);
+  return errors->empty();
+}
+
+/// Appends validateSceneOptions' problems to *errors; true when there are none at all.
+inline bool validateInto(const core::SceneOptions& scene, std::vector<std::string>* errors) {
+  for (const std::string& problem : core::validateSceneOptions(scene)) errors->push_back(problem);
+  return errors->empty();
+}
+
+// ---- released flat -------------------------------------------------------------------------------------------------
+
+/// Lays the cloth flat at the height of its top edge, rows running along +y from the top edge, the two top corners
+/// pinned, so it swings down (the same start as bullet_cloth.h's dynamic patch: top-left corner at
+/// (-width / 2, 0, top edge height), world frame).
+inline void makeDynamic(core::SceneOptions* scene) {
+  const double top_edge_z_m = scene->origin_m.z();
+  scene->u_axis = Eigen::Vector3d::UnitX();
+  scene->v_axis = Eigen::Vector3d::UnitY();
+  scene->origin_m = Eigen::Vector3d(-0.5 * scene->width_m, 0.0, top_edge_z_m);
+  scene->pins = {"top_left", "top_right"};
+}
+
+}  // namespace cloth_sim::bench
