@@ -160,7 +160,23 @@ def start_rviz(mode, proxy, log, folder):
     return [rviz, xvfb]
 
 
-def run_one(node_binary, rate_tool, diagnostics, proxy, scene, side, seconds, log, start_viewers):
+def cpu_s(pid):
+    """CPU time (user + system) the process has used so far, s."""
+    with open("/proc/%d/stat" % pid) as stat:
+        fields = stat.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def pause(node_name, paused):
+    import rospy
+    from std_srvs.srv import SetBool
+    rospy.wait_for_service(node_name + "/pause", READY_S)
+    answer = rospy.ServiceProxy(node_name + "/pause", SetBool)(paused)
+    if not answer.success:
+        raise RuntimeError("~pause refused: " + answer.message)
+
+
+def run_one(node_binary, rate_tool, diagnostics, proxy, scene, side, seconds, log, start_viewers, paused):
     node = subprocess.Popen([node_binary, "__name:=cloth_node", "_scene:=" + scene, "_rows:=%d" % side,
                              "_cols:=%d" % side], stdout=log, stderr=subprocess.STDOUT)
     try:
@@ -169,17 +185,27 @@ def run_one(node_binary, rate_tool, diagnostics, proxy, scene, side, seconds, lo
             return code == 1 or node.poll() is not None
         if not wait_for(registered, READY_S) or node.poll() is not None:
             raise RuntimeError("cloth_node did not start for %s at %dx%d" % (scene, side, side))
-        start_viewers()
+        if paused:
+            pause("/cloth_node", True)
+        viewers = start_viewers()
         diagnostics.start()
+        watched = {"node": node.pid, "rviz": viewers[0].pid if viewers else None}
+        cpu_before = {name: cpu_s(pid) for name, pid in watched.items() if pid}
+        wall_before = time.monotonic()
         alone = measure_rates(rate_tool, ["/cloth_node/state"], seconds)["/cloth_node/state"]
+        wall_s = time.monotonic() - wall_before
+        # CPU share over the whole measurement (cloth_topic_rate's start-up skip included), % of one core.
+        cpu = {name + "_cpu_percent": 100.0 * (cpu_s(watched[name]) - before) / wall_s
+               for name, before in cpu_before.items()}
         health = summarise(diagnostics.stop())
         both = measure_rates(rate_tool, ["/cloth_node/state", "/cloth_node/mesh"], seconds)
     finally:
         stop(node)
-    return {"scene": scene, "rows": side, "cols": side, "seconds": seconds,
+    return {"scene": scene, "rows": side, "cols": side, "seconds": seconds, "paused": paused,
             "state_hz": alone["rate_hz"], "state_period_ms": alone["period_ms"], "state_bytes": alone["bytes"],
             "state_hz_with_mesh": both["/cloth_node/state"]["rate_hz"],
-            "mesh_hz": both["/cloth_node/mesh"]["rate_hz"], "mesh_bytes": both["/cloth_node/mesh"]["bytes"], **health}
+            "mesh_hz": both["/cloth_node/mesh"]["rate_hz"], "mesh_bytes": both["/cloth_node/mesh"]["bytes"],
+            **cpu, **health}
 
 
 def fmt(value, digits=1):
@@ -188,16 +214,17 @@ def fmt(value, digits=1):
 
 def table(runs):
     lines = ["| scene | grid | ~state Hz | period p50 / p99 ms | step cost ms | real-time factor | "
-             "~state Hz with ~mesh | ~mesh Hz | diagnostics |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "~state Hz with ~mesh | ~mesh Hz | node CPU % | rviz CPU % | diagnostics |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for run in runs:
         status = run["level"] or "-"
         if run["level"] not in (None, "OK") and run["message"]:
             status += ": " + run["message"]
-        lines.append("| %s | %dx%d | %s | %s / %s | %s | %s | %s | %s | %s |" % (
+        lines.append("| %s | %dx%d | %s | %s / %s | %s | %s | %s | %s | %s | %s | %s |" % (
             run["scene"], run["rows"], run["cols"], fmt(run["state_hz"]), fmt(run["state_period_ms"]["p50"]),
             fmt(run["state_period_ms"]["p99"]), fmt(run["step_cost_ms"]), fmt(run["real_time_factor"], 2),
-            fmt(run["state_hz_with_mesh"]), fmt(run["mesh_hz"]), status))
+            fmt(run["state_hz_with_mesh"]), fmt(run["mesh_hz"]), fmt(run.get("node_cpu_percent"), 0),
+            fmt(run.get("rviz_cpu_percent"), 0), status))
     return "\n".join(lines)
 
 
@@ -211,6 +238,9 @@ def main():
     parser.add_argument("--json", metavar="FILE", help="also append each run as one JSON line to FILE")
     parser.add_argument("--rviz", choices=["none", "marker", "plugin"], default="none",
                         help="also run rviz drawing the cloth from ~mesh (marker) or from ~state (plugin)")
+    parser.add_argument("--paused", action="store_true",
+                        help="pause the node (~pause) first: it republishes every frame without physics, so the "
+                             "rates show what publishing and viewing alone cost")
     args = parser.parse_args()
     scenes = [s for s in args.scenes.split(",") if s]
     sizes = [int(s) for s in args.sizes.split(",") if s]
@@ -239,10 +269,14 @@ def main():
             for scene in scenes:
                 print("==> rates: %s at %dx%d" % (scene, side, side), file=sys.stderr, flush=True)
                 viewers = []
+
+                def start_viewers():
+                    if args.rviz != "none":
+                        viewers.extend(start_rviz(args.rviz, proxy, log, folder))
+                    return viewers
                 try:
                     run = run_one(node_binary, rate_tool, diagnostics, proxy, scene, side, args.seconds, log,
-                                  lambda: viewers.extend(start_rviz(args.rviz, proxy, log, folder))
-                                  if args.rviz != "none" else None)
+                                  start_viewers, args.paused)
                 finally:
                     for process in viewers:
                         stop(process)
@@ -254,6 +288,8 @@ def main():
     finally:
         stop(master)
         shutil.rmtree(folder, ignore_errors=True)
+    if args.paused:
+        print("paused: every frame republished, no physics")
     if args.rviz != "none":
         print("rviz drawing the cloth from %s (%s)" % (RVIZ_TOPICS[args.rviz], RVIZ_DISPLAYS[args.rviz]))
     print(table(runs))

@@ -66,6 +66,7 @@ void ClothStateDisplay::onInitialize() {
 
 void ClothStateDisplay::reset() {
   MFDClass::reset();
+  pending_.reset();
   mesh_->clear();
   mesh_built_ = false;
   rows_ = cols_ = 0;
@@ -103,23 +104,32 @@ void ClothStateDisplay::computeColours(int rows, int cols) {
   }
 }
 
-void ClothStateDisplay::processMessage(const cloth_sim::ClothState::ConstPtr& message) {
-  const std::uint32_t rows = message->rows;
-  const std::uint32_t cols = message->cols;
+void ClothStateDisplay::processMessage(const cloth_sim::ClothState::ConstPtr& message) { pending_ = message; }
+
+void ClothStateDisplay::update(float /*wall_dt*/, float /*ros_dt*/) {
+  if (!pending_) return;
+  const cloth_sim::ClothState::ConstPtr message = pending_;
+  pending_.reset();
+  draw(*message);
+}
+
+void ClothStateDisplay::draw(const cloth_sim::ClothState& message) {
+  const std::uint32_t rows = message.rows;
+  const std::uint32_t cols = message.cols;
   const auto side_ok = [](std::uint32_t side) { return side >= 2 && side <= core::OptionLimits::kMaxGridSide; };
-  if (!side_ok(rows) || !side_ok(cols) || message->positions.size() != static_cast<std::size_t>(rows) * cols) {
+  if (!side_ok(rows) || !side_ok(cols) || message.positions.size() != static_cast<std::size_t>(rows) * cols) {
     setStatus(rviz::StatusProperty::Error, "Message",
               QString("%1 positions for a %2 x %3 grid (each side must be in [2, %4]): not drawn")
-                  .arg(message->positions.size())
+                  .arg(message.positions.size())
                   .arg(rows)
                   .arg(cols)
                   .arg(core::OptionLimits::kMaxGridSide));
     return;
   }
-  const std::size_t count = message->positions.size();
+  const std::size_t count = message.positions.size();
   std::vector<Eigen::Vector3f> positions(count);
   for (std::size_t i = 0; i < count; ++i) {
-    const geometry_msgs::Point& p = message->positions[i];
+    const geometry_msgs::Point& p = message.positions[i];
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
       setStatus(rviz::StatusProperty::Error, "Message", QString("position %1 is not finite: not drawn").arg(i));
       return;
@@ -128,15 +138,15 @@ void ClothStateDisplay::processMessage(const cloth_sim::ClothState::ConstPtr& me
   }
   Ogre::Vector3 position;
   Ogre::Quaternion orientation;
-  if (!context_->getFrameManager()->getTransform(message->header, position, orientation)) {
+  if (!context_->getFrameManager()->getTransform(message.header, position, orientation)) {
     setStatus(rviz::StatusProperty::Error, "Transform",
               QString("no transform from '%1' to '%2'")
-                  .arg(QString::fromStdString(message->header.frame_id))
+                  .arg(QString::fromStdString(message.header.frame_id))
                   .arg(fixed_frame_));
     return;
   }
   setStatus(rviz::StatusProperty::Ok, "Message",
-            QString("%1 x %2 particles, frame %3").arg(rows).arg(cols).arg(message->frame));
+            QString("%1 x %2 particles, frame %3").arg(rows).arg(cols).arg(message.frame));
   scene_node_->setPosition(position);
   scene_node_->setOrientation(orientation);
 

@@ -12,6 +12,7 @@
 #include <OGRE/OgreMaterial.h>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>  // cross()
 
 #include <cstdint>
 #include <vector>
@@ -37,18 +38,23 @@ class ClothStateDisplay : public rviz::MessageFilterDisplay<cloth_sim::ClothStat
  protected:
   void onInitialize() override;
   void reset() override;
+  /// Keeps the newest message only: it is drawn in update(), once per rendered frame, so a 50 Hz topic
+  /// costs rviz at most its frame rate's worth of mesh updates.
   void processMessage(const cloth_sim::ClothState::ConstPtr& message) override;
+  void update(float wall_dt, float ros_dt) override;
 
  private Q_SLOTS:
   void updateAppearance();
 
  private:
+  void draw(const cloth_sim::ClothState& message);
   /// The colour of every particle: the node's default checker (as cloth_viewer draws it) or one colour.
   void computeColours(int rows, int cols);
   /// Fills the ManualObject: both faces of every quad, the back with reversed winding and flipped normals
   /// (so each side is lit as itself), one index buffer per face.
   void fillMesh(const std::vector<Eigen::Vector3f>& positions_m, const std::vector<Eigen::Vector3f>& normals);
 
+  cloth_sim::ClothState::ConstPtr pending_;  ///< received, not drawn yet
   Ogre::ManualObject* mesh_ = nullptr;
   Ogre::MaterialPtr material_;
   rviz::BoolProperty* checker_property_ = nullptr;
