@@ -12,7 +12,9 @@ and measures with cloth_topic_rate (C++, any type; rostopic hz cannot keep up wi
 Prints a markdown table (doc/BENCHMARKS.md quotes it); --json FILE appends one JSON line per run.
 --rviz marker|plugin also runs rviz (under its own Xvfb, software GL) with config/cloth.rviz drawing the
 cloth from the ~mesh marker (rviz/Marker) or from ~state (the package's cloth_sim/ClothState display), and
-measures once rviz has subscribed: what drawing the cloth in rviz costs the node.
+measures once rviz has subscribed: what drawing the cloth in rviz costs the node. --paused pauses the node
+first (~pause: it republishes every frame, no physics), so only publishing and viewing are measured. The
+node's and rviz's CPU time over the first window are reported in % of one core.
 Needs the package built and its devel/setup.bash sourced (make rates does both).
 """
 import argparse
