@@ -13,6 +13,10 @@
 #                10 kHz and ~grasp at 1 kHz for 30 s (scripts/load.py): rates sent, received and dropped,
 #                ~state and ~mesh rates, frame period percentiles, memory growth (make load
 #                LOAD_ARGS="--seconds 5 --rows 20 --cols 20")
+#   make rates   build, then run every built-in scene at 64x64 and 128x128 (its own defaults otherwise) in a
+#                cloth_node on its own master and measure ~state (and ~mesh) with the C++ cloth_topic_rate:
+#                a markdown table of Hz, step cost, real-time factor and diagnostics (scripts/rates.py;
+#                make rates RATES_ARGS="--scenes flag,drape --sizes 128 --seconds 10")
 #   make accuracy  build, then measure cost against error of every integrator and substep count on hanging, flag
 #                and ball at 20-80 per side, stability maps and each scene's terms (scripts/accuracy.py, about
 #                25 minutes): writes doc/ACCURACY.md and doc/images/accuracy_*.png, raw outputs in .build/accuracy
@@ -33,7 +37,7 @@
 SHELL := /bin/bash
 .SHELLFLAGS := -eu -o pipefail -c
 .DEFAULT_GOAL := build
-.PHONY: deps build test demo bench accuracy load pictures clean help fuzz sanitize sanitize-run
+.PHONY: deps build test demo bench accuracy load pictures clean help fuzz sanitize sanitize-run rates
 
 # Debian 12's own ROS 1 packages (no /opt/ros); this is the one list of what the project needs.
 DEB_PACKAGES := build-essential cmake pkg-config \
@@ -43,6 +47,7 @@ DEB_PACKAGES := build-essential cmake pkg-config \
   python3-dynamic-reconfigure libdiagnostic-updater-dev librosbag-dev python3-rosbag rosbash catkin \
   python3-catkin-pkg libeigen3-dev libstb-dev libyaml-cpp-dev python3-matplotlib python3-numpy xvfb \
   libgtest-dev topic-tools python3-rospy rviz \
+  librviz-dev libtopic-tools-dev \
   python3-std-msgs python3-geometry-msgs python3-visualization-msgs python3-diagnostic-msgs \
   python3-rosgraph-msgs python3-std-srvs python3-tf2-msgs \
   libbullet-dev catkin-lint
@@ -148,6 +153,10 @@ bench: build
 LOAD_ARGS ?=
 load: build
 	@bash -c 'source $(WS)/devel/setup.bash && exec /usr/bin/python3 $(REPO)/scripts/load.py $(LOAD_ARGS)'
+
+RATES_ARGS ?=
+rates: build
+	@bash -c 'source $(WS)/devel/setup.bash && exec /usr/bin/python3 $(REPO)/scripts/rates.py $(RATES_ARGS)'
 
 ACCURACY_ARGS ?=
 accuracy: build

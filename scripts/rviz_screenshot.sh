@@ -26,6 +26,9 @@ Xvfb "$display" -screen 0 1000x720x24 >"$workdir/xvfb.log" 2>&1 & pids+=($!)
 roscore -p "$port" >"$workdir/roscore.log" 2>&1 & pids+=($!)
 for _ in $(seq 50); do rosparam list >/dev/null 2>&1 && break; sleep 0.2; done
 rosparam set use_sim_time true
+# A recording holds no static tf: cloth_viewer puts the fixed frame (world, under map) in tf, as
+# playback.launch does, so rviz's Global Status is OK.
+rosrun cloth_sim cloth_viewer _publish_mesh:=false _frame_id:=world _parent_frame_id:=map >"$workdir/viewer.log" 2>&1 & pids+=($!)
 rviz -d "$(rospack find cloth_sim)/config/cloth.rviz" >"$workdir/rviz.log" 2>&1 & pids+=($!)
 sleep "$RVIZ_START_S"
 duration=$(python3 -c "import rosbag,sys; b=rosbag.Bag(sys.argv[1]); print(b.get_end_time()-b.get_start_time())" "$bag")

@@ -251,6 +251,7 @@ void ClothNode::onTimer(const ros::TimerEvent&) {
     }
   }
   publish(now);
+  frame_budget_.addTick();
   diagnostics_.update();
 }
 
@@ -260,6 +261,7 @@ bool ClothNode::advanceFrames(int frames) {
     last_report_ = simulation_->advanceFrame();
     step_cost_ms_ =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() * kMillisecondsPerSecond;
+    frame_budget_.addFrame(step_cost_ms_);
     if (!last_report_.recovery.empty()) {
       // Not throttled: it happens once per failing setting, and the user must see what was changed.
       ROS_ERROR("cloth_node: recovered by itself: %s", last_report_.recovery.c_str());
@@ -659,6 +661,7 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   const double window_wall_s = std::chrono::duration<double>(now - window_start_).count();
   const double real_time_factor = window_wall_s > 0.0 ? window_sim_s_ / window_wall_s : 0.0;
   const core::EnergyReport energy = simulation_->energies();
+  const FrameBudget::Verdict budget = frame_budget_.judge(simulation_->options().frameDuration_s(), window_wall_s);
   std::string problem;
   if (!recovery_.empty()) {
     problem = "recovered by itself: " + recovery_;
@@ -666,6 +669,8 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
     problem = std::to_string(unstable_frames_) + " frames diverged and were rolled back: " + last_report_.reason;
   } else if (!last_report_.reason.empty()) {
     problem = last_report_.reason;
+  } else if (budget.over_budget) {
+    problem = budget.message + (dropped_frames_ > 0 ? "; " + std::to_string(dropped_frames_) + " frames dropped" : "");
   } else if (dropped_frames_ > 0) {
     problem = std::to_string(dropped_frames_) + " frames dropped: the machine cannot keep up in real time";
   }
@@ -682,6 +687,9 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   addFiniteValue(status, "sim time [s]", simulation_->state().time_s, &non_finite);
   addFiniteValue(status, "step cost [ms]", step_cost_ms_, &non_finite);
   addFiniteValue(status, "real-time factor", real_time_factor, &non_finite);
+  addFiniteValue(status, "mean step cost [ms]", budget.mean_step_cost_ms, &non_finite);
+  addFiniteValue(status, "frame budget [ms]", budget.budget_ms, &non_finite);
+  addFiniteValue(status, "state rate [Hz]", budget.tick_rate_hz, &non_finite);
   addFiniteValue(status, "kinetic energy [J]", energy.kinetic_J, &non_finite);
   addFiniteValue(status, "potential energy [J]", energy.potential_J, &non_finite);
   addFiniteValue(status, "max strain", simulation_->maxStructuralStrain(), &non_finite);
@@ -707,6 +715,7 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   dropped_frames_ = 0;
   window_sim_s_ = 0.0;
   window_start_ = now;
+  frame_budget_.clear();
 }
 
 bool ClothNode::onSaveState(cloth_sim::SaveState::Request& request, cloth_sim::SaveState::Response& response) {

@@ -3,15 +3,22 @@
 // mesh marker's bytes (each vertex once, no colours, against six times with colours).
 //
 //   rosrun cloth_sim cloth_viewer [_state_topic:=/cloth_node/state] [_mesh_topic:=mesh] [_mesh_rate:=25]
+//                                 [_publish_mesh:=true] [_parent_frame_id:=map _frame_id:=world]
 //
 // The mesh is drawn with the built-in checker colours (a state message carries no texture).
+// With ~parent_frame_id set, it also publishes ~frame_id as a static identity child of it in tf, as the live
+// node does (its own ~parent_frame_id): a recording holds no static tf, and without one rviz has no fixed
+// frame to draw in and leaves its Global Status at Warn. playback.launch does that, with publish_mesh:=false
+// unless a Marker display wants the mesh (the ClothState rviz display draws the state itself).
 #include "cloth_sim/ClothState.h"
 #include "cloth_sim/core/grid.h"
 #include "cloth_sim/core/options.h"
 #include "cloth_sim/core/simulation.h"
 #include "cloth_sim/ros/conversions.h"
 
+#include <geometry_msgs/TransformStamped.h>
 #include <ros/ros.h>
+#include <tf2_ros/static_transform_broadcaster.h>
 #include <visualization_msgs/Marker.h>
 
 #include <cmath>
@@ -35,6 +42,27 @@ class ClothViewer {
     pnh.param<std::string>("state_topic", state_topic, "/cloth_node/state");
     pnh.param<std::string>("mesh_topic", mesh_topic, "mesh");
     pnh.param<double>("mesh_rate", mesh_rate_hz, mesh_rate_hz);
+    pnh.param<bool>("publish_mesh", publish_mesh_, publish_mesh_);
+    std::string frame_id;
+    std::string parent_frame;
+    pnh.param<std::string>("frame_id", frame_id, "world");
+    pnh.param<std::string>("parent_frame_id", parent_frame, "");
+    if (!parent_frame.empty()) {
+      if (frame_id.empty() || frame_id[0] == '/' || parent_frame[0] == '/' || parent_frame == frame_id) {
+        *error = "parameters ~frame_id = '" + frame_id + "', ~parent_frame_id = '" + parent_frame +
+                 "': must be two different tf frame names without a leading '/'";
+        return false;
+      }
+      // Static: valid at every time, so also at a looping bag's /clock.
+      geometry_msgs::TransformStamped identity;
+      identity.header.stamp = ros::Time::now();
+      identity.header.frame_id = parent_frame;
+      identity.child_frame_id = frame_id;
+      identity.transform.rotation.w = 1.0;
+      static_broadcaster_.sendTransform(identity);
+      ROS_INFO("cloth_viewer: tf %s -> %s (static identity)", parent_frame.c_str(), frame_id.c_str());
+    }
+    if (!publish_mesh_) return true;
     if (!std::isfinite(mesh_rate_hz) || mesh_rate_hz <= 0.0 ||
         mesh_rate_hz > cloth_sim::core::OptionLimits::kMaxFrameRateHz) {
       *error = "parameter ~mesh_rate = " + std::to_string(mesh_rate_hz) + ": must be in (0, " +
@@ -71,6 +99,8 @@ class ClothViewer {
     last_mesh_ = stamp;
   }
 
+  tf2_ros::StaticTransformBroadcaster static_broadcaster_;
+  bool publish_mesh_ = true;
   ros::Publisher mesh_pub_;
   ros::Subscriber state_sub_;
   double mesh_period_s_ = 1.0 / kDefaultMeshRateHz;

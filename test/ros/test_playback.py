@@ -1,9 +1,14 @@
 #!/usr/bin/python3
-"""playback.launch plays a compact recording (ClothState only) and cloth_viewer turns it into the mesh.
+"""playback.launch plays a compact recording (ClothState only): cloth_viewer turns it into the mesh, and the
+fixed frame is in tf although the bag holds no tf at all.
 
 Writes a short bag of a small cloth's states, starts `roslaunch cloth_sim playback.launch bag:=...
-rviz:=false loop:=false` against the test's master, and waits for /cloth_node/mesh: a TRIANGLE_LIST of
-6 (rows - 1)(cols - 1) points at the recorded positions. Run by test/ros/playback.test.
+rviz:=false loop:=false` against the test's master, and waits
+  - with viewer:=true, for /cloth_node/mesh: a TRIANGLE_LIST of 6 (rows - 1)(cols - 1) points at the
+    recorded positions;
+  - with the defaults, for /tf_static to carry `world` (rviz's fixed frame in config/cloth.rviz) as a
+    child of `map`: without it rviz's Global Status stays at Warn ("Fixed Frame: No tf data").
+Run by test/ros/playback.test.
 """
 import os
 import subprocess
@@ -16,6 +21,7 @@ import rospy
 import rostest
 from cloth_sim.msg import ClothState
 from geometry_msgs.msg import Point, Vector3
+from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import Marker
 
 ROWS, COLS = 4, 5
@@ -41,26 +47,37 @@ def recorded_state(frame):
     return state
 
 
+def write_bag(path):
+    with rosbag.Bag(path, "w", compression="lz4") as bag:
+        for frame in range(FRAMES):
+            state = recorded_state(frame)
+            bag.write("/cloth_node/state", state, state.header.stamp)
+
+
+def play_until(arguments, done):
+    """Runs playback.launch with `arguments` on a fresh bag until done() or the deadline; roslaunch's output."""
+    with tempfile.TemporaryDirectory() as folder:
+        bag_path = os.path.join(folder, "states.bag")
+        write_bag(bag_path)
+        launch = subprocess.Popen(["roslaunch", "cloth_sim", "playback.launch", "bag:=" + bag_path, "rviz:=false",
+                                   "loop:=false"] + arguments, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+        try:
+            deadline = time.monotonic() + DEADLINE_S
+            while not done() and time.monotonic() < deadline and launch.poll() is None:
+                time.sleep(0.05)
+        finally:
+            launch.terminate()
+            output = launch.communicate(timeout=DEADLINE_S)[0]
+    return output.decode(errors="replace")
+
+
 class Playback(unittest.TestCase):
     def test_a_compact_recording_plays_into_the_viewer_as_a_mesh(self):
         meshes = []
-        rospy.Subscriber("/cloth_node/mesh", Marker, meshes.append, queue_size=10)
-        with tempfile.TemporaryDirectory() as folder:
-            bag_path = os.path.join(folder, "states.bag")
-            with rosbag.Bag(bag_path, "w", compression="lz4") as bag:
-                for frame in range(FRAMES):
-                    state = recorded_state(frame)
-                    bag.write("/cloth_node/state", state, state.header.stamp)
-            launch = subprocess.Popen(["roslaunch", "cloth_sim", "playback.launch", "bag:=" + bag_path, "rviz:=false",
-                                       "loop:=false"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
-            try:
-                deadline = time.monotonic() + DEADLINE_S
-                while not meshes and time.monotonic() < deadline and launch.poll() is None:
-                    time.sleep(0.05)
-            finally:
-                launch.terminate()
-                output = launch.communicate(timeout=DEADLINE_S)[0].decode(errors="replace")
-        self.assertTrue(meshes, "no mesh from playback.launch; roslaunch said:\n" + output[-2000:])
+        subscriber = rospy.Subscriber("/cloth_node/mesh", Marker, meshes.append, queue_size=10)
+        output = play_until(["viewer:=true"], lambda: meshes)
+        subscriber.unregister()
+        self.assertTrue(meshes, "no mesh from playback.launch viewer:=true; roslaunch said:\n" + output[-2000:])
         mesh = meshes[0]
         self.assertEqual(mesh.type, Marker.TRIANGLE_LIST)
         self.assertEqual(mesh.header.frame_id, "world")
@@ -69,6 +86,29 @@ class Playback(unittest.TestCase):
         # Every point is one of the recorded particles (the first triangle starts at particle 0).
         xs = sorted({round(p.x, 6) for p in mesh.points})
         self.assertEqual(xs, [round(c * SPACING_M, 6) for c in range(COLS)])
+
+    def test_a_recording_without_tf_still_has_the_fixed_frame(self):
+        # The bag written here holds no /tf and no /tf_static: the frame can only come from the launch.
+        frames = {}
+        states = []
+
+        def on_tf_static(message):
+            for transform in message.transforms:
+                frames[transform.child_frame_id] = transform
+        tf_subscriber = rospy.Subscriber("/tf_static", TFMessage, on_tf_static, queue_size=10)
+        state_subscriber = rospy.Subscriber("/cloth_node/state", ClothState, states.append, queue_size=10)
+        output = play_until([], lambda: "world" in frames and states)
+        tf_subscriber.unregister()
+        state_subscriber.unregister()
+        self.assertIn("world", frames, "no static tf for 'world' from playback.launch; roslaunch said:\n" + output[-2000:])
+        world = frames["world"]
+        self.assertEqual(world.header.frame_id, "map")
+        self.assertEqual(world.transform.rotation.w, 1.0)
+        self.assertEqual((world.transform.translation.x, world.transform.translation.y,
+                          world.transform.translation.z), (0.0, 0.0, 0.0))
+        # The recorded states carry the same frame, so rviz can place them in it.
+        self.assertTrue(states, "the recording was not played")
+        self.assertEqual(states[0].header.frame_id, "world")
 
 
 if __name__ == "__main__":

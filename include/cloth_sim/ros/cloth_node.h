@@ -11,6 +11,7 @@
 #include "cloth_sim/SaveState.h"
 #include "cloth_sim/Step.h"
 #include "cloth_sim/core/simulation.h"
+#include "cloth_sim/ros/frame_budget.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
@@ -192,6 +193,8 @@ class ClothNode {
   std::uint64_t dropped_frames_ = 0;
   double window_sim_s_ = 0.0;
   std::chrono::steady_clock::time_point window_start_;
+  /// Whether this window's frames fit in the frame period (a WARN in the diagnostics when not).
+  FrameBudget frame_budget_;
 };
 
 }  // namespace cloth_sim

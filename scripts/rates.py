@@ -1,0 +1,301 @@
+#!/usr/bin/python3
+"""What rate each built-in scene really publishes at, to a C++ subscriber (issue 13, `make rates`).
+
+Starts its own ROS master on a free port, then for every scene (config/scenes/*.yaml, or --scenes) and size
+(--sizes, default 64 and 128 particles per side; everything else the scene's own defaults) a cloth_node,
+and measures with cloth_topic_rate (C++, any type; rostopic hz cannot keep up with a 128x128 ClothState):
+  1. ~state alone for --seconds: the rate a state subscriber (the ClothState rviz display, a recorder,
+     a controller) gets, with the node's own diagnostics over that window (mean wall time per frame, the
+     real-time factor, and its status: WARN when the physics does not fit in the 20 ms frame);
+  2. ~state and ~mesh together for --seconds: what a ~mesh subscriber (rviz's Marker display) costs the
+     node.
+Prints a markdown table (doc/BENCHMARKS.md quotes it); --json FILE appends one JSON line per run.
+--rviz marker|plugin also runs rviz (under its own Xvfb, software GL) with config/cloth.rviz drawing the
+cloth from the ~mesh marker (rviz/Marker) or from ~state (the package's cloth_sim/ClothState display), and
+measures once rviz has subscribed: what drawing the cloth in rviz costs the node. --paused pauses the node
+first (~pause: it republishes every frame, no physics), so only publishing and viewing are measured. The
+node's and rviz's CPU time over the first window are reported in % of one core.
+Needs the package built and its devel/setup.bash sourced (make rates does both).
+"""
+import argparse
+import glob
+import json
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import xmlrpc.client
+
+CALLER = "/cloth_rates"
+READY_S = 60.0        # a 128x128 scene builds and its node registers within this
+STOP_S = 10.0
+SKIP_S = 2.0          # start-up frames (the scene's first solves, connections) are left out
+STATUS_NAME = "cloth_node: simulation"
+RVIZ_SCREEN = "1000x720x24"
+# The displays of config/cloth.rviz that draw the cloth: from ~state (the plugin) and from ~mesh.
+RVIZ_DISPLAYS = {"plugin": "cloth_sim/ClothState", "marker": "rviz/Marker"}
+RVIZ_TOPICS = {"plugin": "/cloth_node/state", "marker": "/cloth_node/mesh"}
+
+
+def wait_for(condition, timeout_s, period_s=0.05):
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(period_s)
+    return condition()
+
+
+def free_port():
+    with socket.socket() as probe:
+        probe.bind(("localhost", 0))
+        return probe.getsockname()[1]
+
+
+def find_executable(name):
+    return subprocess.run(["catkin_find", "--first-only", "--libexec", "cloth_sim", name], stdout=subprocess.PIPE,
+                          universal_newlines=True, check=True).stdout.strip()
+
+
+def stop(process, signal_number=signal.SIGINT):
+    if process.poll() is None:
+        process.send_signal(signal_number)
+        try:
+            process.wait(STOP_S)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+
+
+class Diagnostics:
+    """The node's statuses on /diagnostics, kept between start() and stop()."""
+
+    def __init__(self):
+        import rospy
+        from diagnostic_msgs.msg import DiagnosticArray
+        self.lock = threading.Lock()
+        self.recording = False
+        self.statuses = []
+        self.subscriber = rospy.Subscriber("/diagnostics", DiagnosticArray, self.on_array, queue_size=20)
+
+    def on_array(self, array):
+        with self.lock:
+            if self.recording:
+                self.statuses += [s for s in array.status if s.name == STATUS_NAME]
+
+    def start(self):
+        with self.lock:
+            self.statuses, self.recording = [], True
+
+    def stop(self):
+        with self.lock:
+            self.recording = False
+            return list(self.statuses)
+
+
+def summarise(statuses):
+    """Mean step cost (ms) and real-time factor over the windows, and the last status's level and message."""
+    def mean_of(key):
+        numbers = []
+        for status in statuses:
+            for entry in status.values:
+                if entry.key == key:
+                    try:
+                        numbers.append(float(entry.value))
+                    except ValueError:
+                        pass
+        return sum(numbers) / len(numbers) if numbers else None
+    cost = mean_of("mean step cost [ms]")
+    if cost is None:
+        cost = mean_of("step cost [ms]")
+    last = statuses[-1] if statuses else None
+    levels = {0: "OK", 1: "WARN", 2: "ERROR", 3: "STALE"}
+    return {"step_cost_ms": cost, "real_time_factor": mean_of("real-time factor"),
+            "level": levels.get(ord(last.level) if isinstance(last.level, bytes) else last.level) if last else None,
+            "message": last.message if last else None}
+
+
+def measure_rates(rate_tool, topics, seconds):
+    result = subprocess.run([rate_tool, "--seconds", str(seconds), "--skip", str(SKIP_S), "--wait", str(READY_S)]
+                            + topics, stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+    lines = [line for line in result.stdout.splitlines() if line.startswith("{")]
+    if not lines:
+        raise RuntimeError("cloth_topic_rate printed nothing: " + result.stderr[-500:])
+    return json.loads(lines[-1])["topics"]
+
+
+def rviz_config(mode, folder):
+    """config/cloth.rviz with only the cloth display of `mode` enabled; its path."""
+    import yaml
+    here = os.path.dirname(os.path.abspath(__file__))
+    with open(os.path.join(here, "..", "config", "cloth.rviz")) as source:
+        config = yaml.safe_load(source)
+    for display in config["Visualization Manager"]["Displays"]:
+        if display["Class"] in RVIZ_DISPLAYS.values():
+            display["Enabled"] = display["Value"] = display["Class"] == RVIZ_DISPLAYS[mode]
+    path = os.path.join(folder, "rates_%s.rviz" % mode)
+    with open(path, "w") as out:
+        yaml.safe_dump(config, out)
+    return path
+
+
+def start_rviz(mode, proxy, log, folder):
+    """Xvfb and rviz drawing the cloth by `mode`; returns the processes once rviz subscribes to its topic."""
+    display = ":%d" % (100 + os.getpid() % 100)
+    xvfb = subprocess.Popen(["Xvfb", display, "-screen", "0", RVIZ_SCREEN], stdout=log, stderr=subprocess.STDOUT)
+    environment = dict(os.environ, DISPLAY=display, LIBGL_ALWAYS_SOFTWARE="1")
+    rviz = subprocess.Popen(["rviz", "-d", rviz_config(mode, folder), "__name:=rviz_rates"], env=environment,
+                            stdout=log, stderr=subprocess.STDOUT)
+
+    def subscribed():
+        _, _, (_, subscribers, _) = proxy.getSystemState(CALLER)
+        return any(topic == RVIZ_TOPICS[mode] and "/rviz_rates" in nodes for topic, nodes in subscribers)
+    if not wait_for(subscribed, READY_S, period_s=0.5) or rviz.poll() is not None:
+        stop(rviz)
+        stop(xvfb)
+        raise RuntimeError("rviz did not subscribe to %s" % RVIZ_TOPICS[mode])
+    return [rviz, xvfb]
+
+
+def cpu_s(pid):
+    """CPU time (user + system) the process has used so far, s."""
+    with open("/proc/%d/stat" % pid) as stat:
+        fields = stat.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def pause(node_name, paused):
+    import rospy
+    from std_srvs.srv import SetBool
+    rospy.wait_for_service(node_name + "/pause", READY_S)
+    answer = rospy.ServiceProxy(node_name + "/pause", SetBool)(paused)
+    if not answer.success:
+        raise RuntimeError("~pause refused: " + answer.message)
+
+
+def run_one(node_binary, rate_tool, diagnostics, proxy, scene, side, seconds, log, start_viewers, paused):
+    node = subprocess.Popen([node_binary, "__name:=cloth_node", "_scene:=" + scene, "_rows:=%d" % side,
+                             "_cols:=%d" % side], stdout=log, stderr=subprocess.STDOUT)
+    try:
+        def registered():
+            code, _, _ = proxy.lookupNode(CALLER, "/cloth_node")
+            return code == 1 or node.poll() is not None
+        if not wait_for(registered, READY_S) or node.poll() is not None:
+            raise RuntimeError("cloth_node did not start for %s at %dx%d" % (scene, side, side))
+        if paused:
+            pause("/cloth_node", True)
+        viewers = start_viewers()
+        diagnostics.start()
+        watched = {"node": node.pid, "rviz": viewers[0].pid if viewers else None}
+        cpu_before = {name: cpu_s(pid) for name, pid in watched.items() if pid}
+        wall_before = time.monotonic()
+        alone = measure_rates(rate_tool, ["/cloth_node/state"], seconds)["/cloth_node/state"]
+        wall_s = time.monotonic() - wall_before
+        # CPU share over the whole measurement (cloth_topic_rate's start-up skip included), % of one core.
+        cpu = {name + "_cpu_percent": 100.0 * (cpu_s(watched[name]) - before) / wall_s
+               for name, before in cpu_before.items()}
+        health = summarise(diagnostics.stop())
+        both = measure_rates(rate_tool, ["/cloth_node/state", "/cloth_node/mesh"], seconds)
+    finally:
+        stop(node)
+    return {"scene": scene, "rows": side, "cols": side, "seconds": seconds, "paused": paused,
+            "state_hz": alone["rate_hz"], "state_period_ms": alone["period_ms"], "state_bytes": alone["bytes"],
+            "state_hz_with_mesh": both["/cloth_node/state"]["rate_hz"],
+            "mesh_hz": both["/cloth_node/mesh"]["rate_hz"], "mesh_bytes": both["/cloth_node/mesh"]["bytes"],
+            **cpu, **health}
+
+
+def fmt(value, digits=1):
+    return "-" if value is None else "%.*f" % (digits, value)
+
+
+def table(runs):
+    lines = ["| scene | grid | ~state Hz | period p50 / p99 ms | step cost ms | real-time factor | "
+             "~state Hz with ~mesh | ~mesh Hz | node CPU % | rviz CPU % | diagnostics |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for run in runs:
+        status = run["level"] or "-"
+        if run["level"] not in (None, "OK") and run["message"]:
+            status += ": " + run["message"]
+        lines.append("| %s | %dx%d | %s | %s / %s | %s | %s | %s | %s | %s | %s | %s |" % (
+            run["scene"], run["rows"], run["cols"], fmt(run["state_hz"]), fmt(run["state_period_ms"]["p50"]),
+            fmt(run["state_period_ms"]["p99"]), fmt(run["step_cost_ms"]), fmt(run["real_time_factor"], 2),
+            fmt(run["state_hz_with_mesh"]), fmt(run["mesh_hz"]), fmt(run.get("node_cpu_percent"), 0),
+            fmt(run.get("rviz_cpu_percent"), 0), status))
+    return "\n".join(lines)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    here = os.path.dirname(os.path.abspath(__file__))
+    builtin = sorted(os.path.basename(p)[:-5] for p in glob.glob(os.path.join(here, "..", "config", "scenes", "*.yaml")))
+    parser.add_argument("--scenes", default=",".join(builtin), help="comma-separated (default: every built-in scene)")
+    parser.add_argument("--sizes", default="64,128", help="particles per side, comma-separated")
+    parser.add_argument("--seconds", type=float, default=5.0, help="measured seconds of each of the two windows")
+    parser.add_argument("--json", metavar="FILE", help="also append each run as one JSON line to FILE")
+    parser.add_argument("--rviz", choices=["none", "marker", "plugin"], default="none",
+                        help="also run rviz drawing the cloth from ~mesh (marker) or from ~state (plugin)")
+    parser.add_argument("--paused", action="store_true",
+                        help="pause the node (~pause) first: it republishes every frame without physics, so the "
+                             "rates show what publishing and viewing alone cost")
+    args = parser.parse_args()
+    scenes = [s for s in args.scenes.split(",") if s]
+    sizes = [int(s) for s in args.sizes.split(",") if s]
+
+    port = free_port()
+    os.environ["ROS_MASTER_URI"] = "http://localhost:%d" % port
+    log = open(os.devnull, "w")
+    folder = tempfile.mkdtemp(prefix="cloth_rates_")
+    master = subprocess.Popen(["rosmaster", "--core", "-p", str(port)], stdout=log, stderr=subprocess.STDOUT)
+    runs = []
+    try:
+        proxy = xmlrpc.client.ServerProxy(os.environ["ROS_MASTER_URI"])
+
+        def answers():
+            try:
+                return proxy.getPid(CALLER)[0] == 1
+            except OSError:
+                return False
+        if not wait_for(answers, READY_S):
+            raise RuntimeError("rosmaster did not start")
+        import rospy
+        rospy.init_node("cloth_rates", anonymous=True, disable_signals=True)
+        diagnostics = Diagnostics()
+        node_binary, rate_tool = find_executable("cloth_node"), find_executable("cloth_topic_rate")
+        for side in sizes:
+            for scene in scenes:
+                print("==> rates: %s at %dx%d" % (scene, side, side), file=sys.stderr, flush=True)
+                viewers = []
+
+                def start_viewers():
+                    if args.rviz != "none":
+                        viewers.extend(start_rviz(args.rviz, proxy, log, folder))
+                    return viewers
+                try:
+                    run = run_one(node_binary, rate_tool, diagnostics, proxy, scene, side, args.seconds, log,
+                                  start_viewers, args.paused)
+                finally:
+                    for process in viewers:
+                        stop(process)
+                run["rviz"] = args.rviz
+                runs.append(run)
+                if args.json:
+                    with open(args.json, "a") as out:
+                        out.write(json.dumps(run) + "\n")
+    finally:
+        stop(master)
+        shutil.rmtree(folder, ignore_errors=True)
+    if args.paused:
+        print("paused: every frame republished, no physics")
+    if args.rviz != "none":
+        print("rviz drawing the cloth from %s (%s)" % (RVIZ_TOPICS[args.rviz], RVIZ_DISPLAYS[args.rviz]))
+    print(table(runs))
+
+
+if __name__ == "__main__":
+    main()

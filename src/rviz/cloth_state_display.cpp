@@ -1,0 +1,223 @@
+#include "cloth_state_display.h"
+
+#include "cloth_sim/core/grid.h"
+#include "cloth_sim/core/options.h"
+#include "cloth_sim/core/simulation.h"
+
+#include <OGRE/OgreManualObject.h>
+#include <OGRE/OgreMaterialManager.h>
+#include <OGRE/OgreSceneManager.h>
+#include <OGRE/OgreSceneNode.h>
+#include <OGRE/OgreTechnique.h>
+#include <pluginlib/class_list_macros.hpp>
+#include <rviz/display_context.h>
+#include <rviz/frame_manager.h>
+#include <rviz/properties/bool_property.h>
+#include <rviz/properties/color_property.h>
+#include <rviz/properties/float_property.h>
+
+#include <cmath>
+#include <string>
+
+namespace cloth_sim {
+
+namespace {
+
+/// Unit grid the checker is laid on: only its texture coordinates are used (as cloth_viewer does).
+constexpr double kUnitSide_m = 1.0;
+/// The default one colour: the checker's light squares.
+const QColor kDefaultColour(237, 219, 158);
+/// Ogre's resource group for the material and mesh made at run time.
+const std::string& resourceGroup() { return Ogre::ResourceGroupManager::DEFAULT_RESOURCE_GROUP_NAME; }
+
+}  // namespace
+
+ClothStateDisplay::ClothStateDisplay() {
+  checker_property_ = new rviz::BoolProperty(
+      "Checker", true, "Draw the node's default checker (the colours cloth_viewer gives a recorded state); off: one colour.",
+      this, SLOT(updateAppearance()));
+  color_property_ = new rviz::ColorProperty("Color", kDefaultColour, "The cloth's colour when Checker is off.", this,
+                                            SLOT(updateAppearance()));
+  alpha_property_ = new rviz::FloatProperty("Alpha", 1.0f, "Opacity, 0 to 1.", this, SLOT(updateAppearance()));
+  alpha_property_->setMin(0.0f);
+  alpha_property_->setMax(1.0f);
+}
+
+ClothStateDisplay::~ClothStateDisplay() {
+  if (mesh_) scene_manager_->destroyManualObject(mesh_);
+  if (material_) Ogre::MaterialManager::getSingleton().remove(material_->getName());
+}
+
+void ClothStateDisplay::onInitialize() {
+  MFDClass::onInitialize();
+  static int instance = 0;  // Ogre names must be unique among every display of this class in the process
+  const std::string name = "cloth_sim_ClothStateDisplay_" + std::to_string(instance++);
+  mesh_ = scene_manager_->createManualObject(name);
+  mesh_->setDynamic(true);
+  scene_node_->attachObject(mesh_);
+  material_ = Ogre::MaterialManager::getSingleton().create(name + "_material", resourceGroup());
+  material_->setReceiveShadows(false);
+  Ogre::Pass* pass = material_->getTechnique(0)->getPass(0);
+  pass->setLightingEnabled(true);
+  // Lit by the particles' own colours: ambient and diffuse follow the vertex colour.
+  pass->setVertexColourTracking(Ogre::TVC_AMBIENT | Ogre::TVC_DIFFUSE);
+  updateAppearance();
+}
+
+void ClothStateDisplay::reset() {
+  MFDClass::reset();
+  pending_.reset();
+  mesh_->clear();
+  mesh_built_ = false;
+  rows_ = cols_ = 0;
+}
+
+void ClothStateDisplay::updateAppearance() {
+  color_property_->setHidden(checker_property_->getBool());
+  if (!material_) return;
+  Ogre::Pass* pass = material_->getTechnique(0)->getPass(0);
+  const bool transparent = alpha_property_->getFloat() < 1.0f;
+  pass->setSceneBlending(transparent ? Ogre::SBT_TRANSPARENT_ALPHA : Ogre::SBT_REPLACE);
+  pass->setDepthWriteEnabled(!transparent);
+  if (rows_ > 0) {
+    computeColours(rows_, cols_);
+    mesh_built_ = false;  // the colours live in the vertex buffer: rebuilt with the next message
+  }
+  context_->queueRender();
+}
+
+void ClothStateDisplay::computeColours(int rows, int cols) {
+  const float alpha = alpha_property_->getFloat();
+  colours_.assign(static_cast<std::size_t>(rows) * cols, Ogre::ColourValue::White);
+  if (checker_property_->getBool()) {
+    const core::ClothGrid grid = core::buildClothGrid(rows, cols, kUnitSide_m, kUnitSide_m, Eigen::Vector3d::Zero(),
+                                                      Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY());
+    const Eigen::Matrix3Xf checker = core::checkerColors(grid.uv);
+    for (std::size_t i = 0; i < colours_.size(); ++i) {
+      const auto column = checker.col(static_cast<Eigen::Index>(i));
+      colours_[i] = Ogre::ColourValue(column.x(), column.y(), column.z(), alpha);
+    }
+  } else {
+    Ogre::ColourValue colour = color_property_->getOgreColor();
+    colour.a = alpha;
+    std::fill(colours_.begin(), colours_.end(), colour);
+  }
+}
+
+void ClothStateDisplay::processMessage(const cloth_sim::ClothState::ConstPtr& message) { pending_ = message; }
+
+void ClothStateDisplay::update(float /*wall_dt*/, float /*ros_dt*/) {
+  if (!pending_) return;
+  const cloth_sim::ClothState::ConstPtr message = pending_;
+  pending_.reset();
+  draw(*message);
+}
+
+void ClothStateDisplay::draw(const cloth_sim::ClothState& message) {
+  const std::uint32_t rows = message.rows;
+  const std::uint32_t cols = message.cols;
+  const auto side_ok = [](std::uint32_t side) { return side >= 2 && side <= core::OptionLimits::kMaxGridSide; };
+  if (!side_ok(rows) || !side_ok(cols) || message.positions.size() != static_cast<std::size_t>(rows) * cols) {
+    setStatus(rviz::StatusProperty::Error, "Message",
+              QString("%1 positions for a %2 x %3 grid (each side must be in [2, %4]): not drawn")
+                  .arg(message.positions.size())
+                  .arg(rows)
+                  .arg(cols)
+                  .arg(core::OptionLimits::kMaxGridSide));
+    return;
+  }
+  const std::size_t count = message.positions.size();
+  std::vector<Eigen::Vector3f> positions(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    const geometry_msgs::Point& p = message.positions[i];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
+      setStatus(rviz::StatusProperty::Error, "Message", QString("position %1 is not finite: not drawn").arg(i));
+      return;
+    }
+    positions[i] = Eigen::Vector3f(static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z));
+  }
+  Ogre::Vector3 position;
+  Ogre::Quaternion orientation;
+  if (!context_->getFrameManager()->getTransform(message.header, position, orientation)) {
+    setStatus(rviz::StatusProperty::Error, "Transform",
+              QString("no transform from '%1' to '%2'")
+                  .arg(QString::fromStdString(message.header.frame_id))
+                  .arg(fixed_frame_));
+    return;
+  }
+  setStatus(rviz::StatusProperty::Ok, "Message",
+            QString("%1 x %2 particles, frame %3").arg(rows).arg(cols).arg(message.frame));
+  scene_node_->setPosition(position);
+  scene_node_->setOrientation(orientation);
+
+  if (static_cast<int>(rows) != rows_ || static_cast<int>(cols) != cols_) {
+    rows_ = static_cast<int>(rows);
+    cols_ = static_cast<int>(cols);
+    computeColours(rows_, cols_);
+    // Two triangles per quad, counter-clockwise seen from the side the normals point to.
+    indices_.clear();
+    indices_.reserve(static_cast<std::size_t>(rows_ - 1) * (cols_ - 1) * 6);
+    for (int r = 0; r + 1 < rows_; ++r) {
+      for (int c = 0; c + 1 < cols_; ++c) {
+        const std::uint32_t a = static_cast<std::uint32_t>(r * cols_ + c);
+        const std::uint32_t b = a + 1;
+        const std::uint32_t d = a + static_cast<std::uint32_t>(cols_);
+        const std::uint32_t e = d + 1;
+        indices_.insert(indices_.end(), {a, b, d, b, e, d});
+      }
+    }
+    mesh_built_ = false;
+  }
+  // Per-particle normals from central differences along the grid (one-sided at the edges): the cross
+  // product of the column and row directions, the same orientation as the triangles above.
+  std::vector<Eigen::Vector3f> normals(count);
+  for (int r = 0; r < rows_; ++r) {
+    for (int c = 0; c < cols_; ++c) {
+      const auto at = [&](int rr, int cc) { return positions[static_cast<std::size_t>(rr * cols_ + cc)]; };
+      const Eigen::Vector3f along_cols = at(r, std::min(c + 1, cols_ - 1)) - at(r, std::max(c - 1, 0));
+      const Eigen::Vector3f along_rows = at(std::min(r + 1, rows_ - 1), c) - at(std::max(r - 1, 0), c);
+      const Eigen::Vector3f normal = along_cols.cross(along_rows);
+      const float length = normal.norm();
+      normals[static_cast<std::size_t>(r * cols_ + c)] = length > 0.0f ? Eigen::Vector3f(normal / length)
+                                                                        : Eigen::Vector3f::UnitZ();
+    }
+  }
+  fillMesh(positions, normals);
+  context_->queueRender();
+}
+
+void ClothStateDisplay::fillMesh(const std::vector<Eigen::Vector3f>& positions_m,
+                                 const std::vector<Eigen::Vector3f>& normals) {
+  const std::uint32_t count = static_cast<std::uint32_t>(positions_m.size());
+  if (mesh_built_) {
+    mesh_->beginUpdate(0);
+  } else {
+    mesh_->clear();
+    mesh_->estimateVertexCount(2 * count);
+    mesh_->estimateIndexCount(2 * indices_.size());
+    mesh_->begin(material_->getName(), Ogre::RenderOperation::OT_TRIANGLE_LIST, resourceGroup());
+  }
+  for (int face = 0; face < 2; ++face) {
+    const float sign = face == 0 ? 1.0f : -1.0f;
+    for (std::uint32_t i = 0; i < count; ++i) {
+      const Eigen::Vector3f& p = positions_m[i];
+      const Eigen::Vector3f n = sign * normals[i];
+      mesh_->position(p.x(), p.y(), p.z());
+      mesh_->normal(n.x(), n.y(), n.z());
+      mesh_->colour(colours_[i]);
+    }
+  }
+  // The back face: the same triangles with two corners swapped, on the second copy of the vertices.
+  for (std::uint32_t index : indices_) mesh_->index(index);
+  for (std::size_t t = 0; t < indices_.size(); t += 3) {
+    mesh_->index(count + indices_[t]);
+    mesh_->index(count + indices_[t + 2]);
+    mesh_->index(count + indices_[t + 1]);
+  }
+  mesh_->end();
+  mesh_built_ = true;
+}
+
+}  // namespace cloth_sim
+
+PLUGINLIB_EXPORT_CLASS(cloth_sim::ClothStateDisplay, rviz::Display)

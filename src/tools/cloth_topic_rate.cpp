@@ -1,0 +1,203 @@
+// cloth_topic_rate: how fast topics really arrive at a C++ subscriber, as one JSON line.
+//
+//   rosrun cloth_sim cloth_topic_rate [--seconds 10] [--wait 30] [--skip 1] TOPIC...
+//
+// Subscribes to every TOPIC as a topic_tools::ShapeShifter (any type, never deserialised: the bytes are
+// only counted, so the subscriber costs a copy and stays far faster than rostopic hz, which cannot keep
+// up with a 128x128 ClothState in Python). For each topic, after its first message and `--skip` seconds
+// more (start-up), it records the arrival time (wall clock) of every message for `--seconds` seconds and
+// prints
+//   {"seconds": 10.0, "topics": {"/cloth_node/state": {"messages": 501, "rate_hz": 50.0,
+//     "period_ms": {"p50": 20.0, "p90": 20.3, "p99": 21.0, "max": 24.1}, "bytes": 786520,
+//     "stamp_rate_hz": 50.0}, ...}}
+// stamp_rate_hz is the rate of the messages' own header stamps (messages whose first field is a Header):
+// the publisher's clock, without the transport's jitter. A topic with no message inside --wait seconds
+// reports "messages": 0. Exit status 0 when every topic got at least two messages, 1 otherwise.
+#include <ros/ros.h>
+#include <topic_tools/shape_shifter.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace {
+
+constexpr double kDefaultSeconds = 10.0;
+constexpr double kDefaultWait_s = 30.0;
+constexpr double kDefaultSkip_s = 1.0;
+constexpr double kMillisecondsPerSecond = 1000.0;
+constexpr double kPollPeriod_s = 0.01;
+/// A std_msgs/Header's serialised start: uint32 seq, then the stamp as uint32 seconds and nanoseconds.
+constexpr std::size_t kStampOffset = 4;
+constexpr std::size_t kStampBytes = 8;
+constexpr double kNanosecondsPerSecond = 1e9;
+
+/// What one topic has seen: arrival times (wall, s) and header stamps (s, when the type has a header).
+struct TopicRecord {
+  std::string topic;
+  double first_arrival_s = -1.0;
+  std::vector<double> arrivals_s;
+  std::vector<double> stamps_s;
+  std::uint64_t bytes = 0;
+  bool has_header = false;
+  std::vector<std::uint8_t> buffer;  ///< the last message's bytes (ShapeShifter gives them only by copy)
+};
+
+double percentile(std::vector<double> sorted, double fraction) {
+  if (sorted.empty()) return 0.0;
+  std::sort(sorted.begin(), sorted.end());
+  const double position = fraction * static_cast<double>(sorted.size() - 1);
+  const std::size_t below = static_cast<std::size_t>(position);
+  const std::size_t above = std::min(below + 1, sorted.size() - 1);
+  return sorted[below] + (position - static_cast<double>(below)) * (sorted[above] - sorted[below]);
+}
+
+/// Messages per second over the span from the first to the last sample (N - 1 intervals).
+double rateHz(const std::vector<double>& times_s) {
+  if (times_s.size() < 2) return 0.0;
+  const double span_s = times_s.back() - times_s.front();
+  return span_s > 0.0 ? static_cast<double>(times_s.size() - 1) / span_s : 0.0;
+}
+
+std::string jsonString(const std::string& text) {
+  std::string out = "\"";
+  for (char c : text) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "\"";
+}
+
+class RateMeter {
+ public:
+  RateMeter(double seconds, double skip_s) : seconds_(seconds), skip_s_(skip_s) {}
+
+  void subscribe(ros::NodeHandle& handle, const std::string& topic) {
+    auto record = std::make_shared<TopicRecord>();
+    record->topic = topic;
+    records_.push_back(record);
+    // Queue of 1: a late subscriber must not hide a slow publisher behind a backlog it works off later.
+    subscribers_.push_back(handle.subscribe<topic_tools::ShapeShifter>(
+        topic, 1, [this, record](const topic_tools::ShapeShifter::ConstPtr& message) { onMessage(*record, *message); },
+        ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay()));
+  }
+
+  /// True once every topic has been recorded for its whole window.
+  bool done(double now_s) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& record : records_) {
+      if (record->first_arrival_s < 0.0 || now_s < record->first_arrival_s + skip_s_ + seconds_) return false;
+    }
+    return true;
+  }
+
+  /// The JSON line; *all_measured is false when a topic got fewer than two messages.
+  std::string report(bool* all_measured) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::ostringstream out;
+    out.precision(6);
+    out << "{\"seconds\": " << seconds_ << ", \"topics\": {";
+    *all_measured = true;
+    for (std::size_t t = 0; t < records_.size(); ++t) {
+      const TopicRecord& record = *records_[t];
+      std::vector<double> periods_ms;
+      for (std::size_t i = 1; i < record.arrivals_s.size(); ++i) {
+        periods_ms.push_back((record.arrivals_s[i] - record.arrivals_s[i - 1]) * kMillisecondsPerSecond);
+      }
+      const std::size_t count = record.arrivals_s.size();
+      if (count < 2) *all_measured = false;
+      out << (t ? ", " : "") << jsonString(record.topic) << ": {\"messages\": " << count
+          << ", \"rate_hz\": " << rateHz(record.arrivals_s) << ", \"period_ms\": {\"p50\": "
+          << percentile(periods_ms, 0.5) << ", \"p90\": " << percentile(periods_ms, 0.9)
+          << ", \"p99\": " << percentile(periods_ms, 0.99) << ", \"max\": "
+          << (periods_ms.empty() ? 0.0 : *std::max_element(periods_ms.begin(), periods_ms.end()))
+          << "}, \"bytes\": " << (count ? record.bytes / count : 0);
+      if (record.has_header) out << ", \"stamp_rate_hz\": " << rateHz(record.stamps_s);
+      out << "}";
+    }
+    out << "}}";
+    return out.str();
+  }
+
+ private:
+  void onMessage(TopicRecord& record, const topic_tools::ShapeShifter& message) {
+    const double now_s = ros::WallTime::now().toSec();
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (record.first_arrival_s < 0.0) record.first_arrival_s = now_s;
+    if (now_s < record.first_arrival_s + skip_s_ || now_s > record.first_arrival_s + skip_s_ + seconds_) return;
+    record.arrivals_s.push_back(now_s);
+    record.bytes += message.size();
+    // The definition of a type with a header starts with it ("Header header" or "std_msgs/Header header").
+    const std::string& definition = message.getMessageDefinition();
+    const bool has_header = definition.rfind("Header header", 0) == 0 || definition.rfind("std_msgs/Header header", 0) == 0;
+    if (has_header && message.size() >= kStampOffset + kStampBytes) {
+      record.buffer.resize(message.size());
+      ros::serialization::OStream stream(record.buffer.data(), static_cast<std::uint32_t>(record.buffer.size()));
+      message.write(stream);
+      std::uint32_t stamp[2];
+      std::memcpy(stamp, record.buffer.data() + kStampOffset, kStampBytes);
+      record.has_header = true;
+      record.stamps_s.push_back(stamp[0] + stamp[1] / kNanosecondsPerSecond);
+    }
+  }
+
+  double seconds_;
+  double skip_s_;
+  mutable std::mutex mutex_;
+  std::vector<std::shared_ptr<TopicRecord>> records_;
+  std::vector<ros::Subscriber> subscribers_;
+};
+
+int usage(const char* reason) {
+  std::fprintf(stderr, "cloth_topic_rate: %s\nusage: cloth_topic_rate [--seconds S] [--wait S] [--skip S] TOPIC...\n",
+               reason);
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "cloth_topic_rate", ros::init_options::AnonymousName);
+  double seconds = kDefaultSeconds;
+  double wait_s = kDefaultWait_s;
+  double skip_s = kDefaultSkip_s;
+  std::vector<std::string> topics;
+  for (int i = 1; i < argc; ++i) {
+    const std::string argument = argv[i];
+    double* value = argument == "--seconds" ? &seconds : argument == "--wait" ? &wait_s : argument == "--skip" ? &skip_s : nullptr;
+    if (value) {
+      if (i + 1 >= argc) return usage(("missing the value of " + argument).c_str());
+      char* end = nullptr;
+      *value = std::strtod(argv[++i], &end);
+      if (end == argv[i] || *end != '\0' || !(*value >= 0.0)) return usage(("bad value for " + argument).c_str());
+    } else if (!argument.empty() && argument[0] == '-') {
+      return usage(("unknown option " + argument).c_str());
+    } else {
+      topics.push_back(argument);
+    }
+  }
+  if (topics.empty()) return usage("no topic given");
+  if (seconds <= 0.0) return usage("--seconds must be positive");
+
+  ros::NodeHandle handle;
+  RateMeter meter(seconds, skip_s);
+  for (const std::string& topic : topics) meter.subscribe(handle, topic);
+  // Two threads: a 5 MB message being copied on one topic does not delay the other's arrival times.
+  ros::AsyncSpinner spinner(2);
+  spinner.start();
+  const double give_up_s = ros::WallTime::now().toSec() + wait_s + skip_s + seconds;
+  while (ros::ok() && !meter.done(ros::WallTime::now().toSec()) && ros::WallTime::now().toSec() < give_up_s) {
+    ros::WallDuration(kPollPeriod_s).sleep();
+  }
+  spinner.stop();
+  bool all_measured = false;
+  std::printf("%s\n", meter.report(&all_measured).c_str());
+  return all_measured ? 0 : 1;
+}

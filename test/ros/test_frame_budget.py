@@ -1,0 +1,85 @@
+#!/usr/bin/python3
+"""cloth_node's diagnostics say when the physics cannot keep the frame rate (issue 13), and only then.
+
+test/ros/frame_budget.test starts two nodes: cloth_node_heavy (a frame costs far more than its 20 ms) and
+cloth_node_light (a 10x10 cloth). The heavy one's status must be WARN, naming its cost per frame, the
+budget and the rate ~state really comes at; the light one's must be OK with its cost inside the budget.
+"""
+import threading
+import time
+import unittest
+
+import rospy
+import rostest
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+
+DEADLINE_S = 60.0
+BUDGET_MS = 20.0  # 1 / 50 Hz, the scenes' frame rate
+FRAME_RATE_HZ = 50.0
+
+
+class Statuses:
+    """Every status seen on /diagnostics, by name."""
+
+    def __init__(self):
+        self.lock = threading.Lock()
+        self.by_name = {}
+        self.subscriber = rospy.Subscriber("/diagnostics", DiagnosticArray, self.on_array, queue_size=50)
+
+    def on_array(self, array):
+        with self.lock:
+            for status in array.status:
+                self.by_name.setdefault(status.name, []).append(status)
+
+    def wait_for(self, name, condition):
+        deadline = time.monotonic() + DEADLINE_S
+        while time.monotonic() < deadline and not rospy.is_shutdown():
+            with self.lock:
+                for status in self.by_name.get(name, []):
+                    if condition(status):
+                        return status
+            time.sleep(0.05)
+        with self.lock:
+            return None, list(self.by_name.get(name, []))[-3:]
+
+
+def values(status):
+    return {entry.key: entry.value for entry in status.values}
+
+
+class FrameBudget(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.statuses = Statuses()
+
+    def test_a_node_over_its_budget_says_so(self):
+        def over_budget(status):
+            # The first window may hold only start-up; the first one with frames in it must warn.
+            return "mean step cost [ms]" in values(status) and float(values(status)["mean step cost [ms]"]) > 0.0
+        status = self.statuses.wait_for("cloth_node_heavy: simulation", over_budget)
+        self.assertIsInstance(status, DiagnosticStatus, "no status with frames from cloth_node_heavy: %s" % (status,))
+        figures = values(status)
+        self.assertEqual(status.level, DiagnosticStatus.WARN, status.message)
+        self.assertIn("ms budget", status.message)
+        self.assertIn("physics", status.message)
+        self.assertEqual(float(figures["frame budget [ms]"]), BUDGET_MS)
+        self.assertGreater(float(figures["mean step cost [ms]"]), BUDGET_MS)
+        self.assertLess(float(figures["state rate [Hz]"]), FRAME_RATE_HZ)
+        self.assertLess(float(figures["real-time factor"]), 1.0)
+
+    def test_a_node_inside_its_budget_is_ok(self):
+        def with_frames(status):
+            return "mean step cost [ms]" in values(status) and float(values(status)["mean step cost [ms]"]) > 0.0
+        status = self.statuses.wait_for("cloth_node_light: simulation",
+                                        lambda s: with_frames(s) and s.level == DiagnosticStatus.OK)
+        self.assertIsInstance(status, DiagnosticStatus, "no OK status with frames from cloth_node_light: %s" % (status,))
+        figures = values(status)
+        self.assertNotIn("budget", status.message)
+        self.assertEqual(float(figures["frame budget [ms]"]), BUDGET_MS)
+        self.assertLess(float(figures["mean step cost [ms]"]), BUDGET_MS)
+        self.assertGreater(float(figures["state rate [Hz]"]), 0.0)
+
+
+if __name__ == "__main__":
+    rospy.init_node("test_frame_budget")
+    rostest.rosrun("cloth_sim", "frame_budget", FrameBudget)
