@@ -1,0 +1,334 @@
+#include "cloth_sim/core/depth_render.h"
+
+#include "cloth_sim/core/constants.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+namespace cloth_sim::core {
+
+namespace {
+
+constexpr float kNoSurface = std::numeric_limits<float>::infinity();
+/// Shading of the colour image: a light at the camera, ambient + diffuse |cos| of the angle between the
+/// surface normal and the ray (both sides of the cloth lit alike).
+constexpr float kAmbient = 0.35f;
+constexpr float kDiffuse = 0.65f;
+/// Colliders' base colour in the colour image (RGB in [0, 1]): a neutral grey, as rviz draws them.
+constexpr float kColliderGrey = 0.6f;
+constexpr float kMaxByte = 255.0f;
+/// A projected triangle with less image area than this (pixels^2) is seen edge-on: it covers no pixel
+/// centre reliably and its barycentric weights would divide by almost zero.
+constexpr double kMinProjectedArea_px2 = 1e-12;
+
+/// A vertex in the optical frame with its colour, as near-plane clipping makes new ones.
+struct ClipVertex {
+  Eigen::Vector3d position_m;
+  Eigen::Vector3f color;
+};
+
+/// Clips a triangle to z >= near_m (Sutherland-Hodgman against one plane): 0, 3 or 4 vertices.
+int clipToNearPlane(const std::array<ClipVertex, 3>& triangle, double near_m, std::array<ClipVertex, 4>* out) {
+  int count = 0;
+  for (int i = 0; i < 3; ++i) {
+    const ClipVertex& current = triangle[i];
+    const ClipVertex& next = triangle[(i + 1) % 3];
+    const bool current_in = current.position_m.z() >= near_m;
+    const bool next_in = next.position_m.z() >= near_m;
+    if (current_in) (*out)[count++] = current;
+    if (current_in != next_in) {
+      const double s = (near_m - current.position_m.z()) / (next.position_m.z() - current.position_m.z());
+      ClipVertex cut;
+      cut.position_m = current.position_m + s * (next.position_m - current.position_m);
+      cut.position_m.z() = near_m;  // exactly on the plane, whatever the rounding of the line above
+      cut.color = current.color + static_cast<float>(s) * (next.color - current.color);
+      (*out)[count++] = cut;
+    }
+  }
+  return count;
+}
+
+float shade(const Eigen::Vector3d& normal, const Eigen::Vector3d& ray) {
+  const double norms = normal.norm() * ray.norm();
+  const double cosine = norms > 0.0 ? std::abs(normal.dot(ray)) / norms : 1.0;
+  return kAmbient + kDiffuse * static_cast<float>(cosine);
+}
+
+std::uint8_t toByte(float value) {
+  return static_cast<std::uint8_t>(std::lround(std::clamp(value, 0.0f, 1.0f) * kMaxByte));
+}
+
+void writeColor(DepthFrame* frame, std::size_t pixel, const Eigen::Vector3f& color) {
+  for (int k = 0; k < 3; ++k) frame->rgb[3 * pixel + k] = toByte(color[k]);
+}
+
+/// splitmix64 (Steele, Lea and Flood 2014): a counter-based generator, so each pixel's draw is a pure
+/// function of its key.
+std::uint64_t splitMix64(std::uint64_t x) {
+  x += 0x9E3779B97F4A7C15ull;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+  return x ^ (x >> 31);
+}
+
+/// A uniform number in (0, 1] from the top 53 bits.
+double unitInterval(std::uint64_t bits) {
+  constexpr double kTwoToMinus53 = 1.0 / 9007199254740992.0;
+  return (static_cast<double>(bits >> 11) + 1.0) * kTwoToMinus53;
+}
+
+}  // namespace
+
+PinholeCamera PinholeCamera::from(const CameraOptions& options) {
+  PinholeCamera camera;
+  camera.width = options.width;
+  camera.height = options.height;
+  camera.fx_px = options.fx_px;
+  camera.fy_px = options.fy_px;
+  camera.cx_px = options.cx_px;
+  camera.cy_px = options.cy_px;
+  camera.min_range_m = options.min_range_m;
+  camera.max_range_m = options.max_range_m;
+  return camera;
+}
+
+void DepthRenderer::render(const PinholeCamera& camera, const Eigen::Isometry3d& world_from_optical,
+                           const RenderScene& scene, bool with_color, DepthFrame* frame) {
+  const std::size_t pixels = static_cast<std::size_t>(camera.width) * static_cast<std::size_t>(camera.height);
+  frame->width = camera.width;
+  frame->height = camera.height;
+  frame->depth_m.assign(pixels, kNoSurface);
+  frame->mask.assign(pixels, 0);
+  if (with_color) {
+    frame->rgb.assign(3 * pixels, 0);
+  } else {
+    frame->rgb.clear();
+  }
+  if (scene.colliders && !scene.colliders->empty()) {
+    castColliders(camera, world_from_optical, *scene.colliders, scene.time_s, with_color, frame);
+  }
+  if (scene.positions_m && scene.triangles) rasterizeCloth(camera, world_from_optical, scene, with_color, frame);
+  const float max_range_m = static_cast<float>(camera.max_range_m);
+  for (std::size_t i = 0; i < pixels; ++i) {
+    if (frame->depth_m[i] > max_range_m) {  // also kNoSurface
+      frame->depth_m[i] = std::numeric_limits<float>::quiet_NaN();
+      frame->mask[i] = 0;
+      if (with_color) writeColor(frame, i, Eigen::Vector3f::Zero());
+    }
+  }
+}
+
+void DepthRenderer::castColliders(const PinholeCamera& camera, const Eigen::Isometry3d& world_from_optical,
+                                  const ColliderSet& colliders, double time_s, bool with_color, DepthFrame* frame) {
+  // Every ray is t (the camera centre) + s R d with d = ((u - cx) / fx, (v - cy) / fy, 1) in the optical
+  // frame: d's z is 1, so the parameter s of a hit is its depth z.
+  const Eigen::Matrix3d rotation = world_from_optical.linear();
+  const Eigen::Vector3d origin_m = world_from_optical.translation();
+  struct PlaneInOptical {
+    Eigen::Vector3d normal;  // optical frame
+    double camera_height_m;  // signed distance of the camera centre from the plane
+  };
+  std::vector<PlaneInOptical> planes;
+  for (const PlaneCollider& plane : colliders.planes) {
+    planes.push_back({rotation.transpose() * plane.normal, plane.normal.dot(origin_m) + plane.offset_m});
+  }
+  struct SphereInOptical {
+    Eigen::Vector3d center_m;  // optical frame
+    double radius_m;
+    double camera_term_m2;  // |c|^2 - r^2: negative with the camera inside
+  };
+  std::vector<SphereInOptical> spheres;
+  for (const SphereCollider& sphere : colliders.spheres) {
+    const Eigen::Vector3d center = rotation.transpose() * (sphere.centerAt(time_s) - origin_m);
+    spheres.push_back({center, sphere.radius_m, center.squaredNorm() - sphere.radius_m * sphere.radius_m});
+  }
+  const float min_range_m = static_cast<float>(camera.min_range_m);
+  for (int v = 0; v < camera.height; ++v) {
+    for (int u = 0; u < camera.width; ++u) {
+      const Eigen::Vector3d ray((u - camera.cx_px) / camera.fx_px, (v - camera.cy_px) / camera.fy_px, 1.0);
+      double nearest_m = std::numeric_limits<double>::infinity();
+      Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // optical frame, at the nearest hit
+      const auto take = [&](double depth_m, const Eigen::Vector3d& surface_normal) {
+        if (depth_m >= min_range_m && depth_m < nearest_m) {
+          nearest_m = depth_m;
+          normal = surface_normal;
+        }
+      };
+      for (const PlaneInOptical& plane : planes) {
+        const double rate = plane.normal.dot(ray);
+        if (rate != 0.0) take(-plane.camera_height_m / rate, plane.normal);
+      }
+      for (const SphereInOptical& sphere : spheres) {
+        // |s d - c|^2 = r^2: a s^2 - 2 b s + k = 0; the near root, or the far one from inside.
+        const double a = ray.squaredNorm();
+        const double b = ray.dot(sphere.center_m);
+        const double discriminant = b * b - a * sphere.camera_term_m2;
+        if (discriminant < 0.0) continue;
+        const double root = std::sqrt(discriminant);
+        const double depth_m = sphere.camera_term_m2 > 0.0 ? (b - root) / a : (b + root) / a;
+        take(depth_m, depth_m * ray - sphere.center_m);
+      }
+      if (!colliders.boxes.empty()) {
+        const Eigen::Vector3d direction = rotation * ray;  // world frame
+        for (const BoxCollider& box : colliders.boxes) {
+          // Slabs (Kay and Kajiya): the ray is inside the box between its last entry and first exit.
+          double enter = -std::numeric_limits<double>::infinity();
+          double leave = std::numeric_limits<double>::infinity();
+          int enter_axis = 0;
+          int leave_axis = 0;
+          bool missed = false;
+          for (int axis = 0; axis < 3 && !missed; ++axis) {
+            if (direction[axis] == 0.0) {
+              missed = origin_m[axis] < box.min_m[axis] || origin_m[axis] > box.max_m[axis];
+              continue;
+            }
+            const double s1 = (box.min_m[axis] - origin_m[axis]) / direction[axis];
+            const double s2 = (box.max_m[axis] - origin_m[axis]) / direction[axis];
+            if (std::min(s1, s2) > enter) {
+              enter = std::min(s1, s2);
+              enter_axis = axis;
+            }
+            if (std::max(s1, s2) < leave) {
+              leave = std::max(s1, s2);
+              leave_axis = axis;
+            }
+          }
+          if (missed || enter > leave || leave <= 0.0) continue;
+          const bool from_outside = enter > 0.0;
+          take(from_outside ? enter : leave,
+               rotation.transpose() * Eigen::Vector3d::Unit(from_outside ? enter_axis : leave_axis));
+        }
+      }
+      if (!std::isfinite(nearest_m)) continue;
+      const std::size_t pixel = static_cast<std::size_t>(v) * camera.width + u;
+      frame->depth_m[pixel] = static_cast<float>(nearest_m);
+      if (with_color) writeColor(frame, pixel, Eigen::Vector3f::Constant(kColliderGrey * shade(normal, ray)));
+    }
+  }
+}
+
+void DepthRenderer::rasterizeCloth(const PinholeCamera& camera, const Eigen::Isometry3d& world_from_optical,
+                                   const RenderScene& scene, bool with_color, DepthFrame* frame) {
+  const Eigen::Matrix3d optical_from_world = world_from_optical.linear().transpose();
+  optical_positions_m_ = optical_from_world * (scene.positions_m->colwise() - world_from_optical.translation());
+  const std::vector<int>& triangles = *scene.triangles;
+  const bool has_colors = scene.colors && scene.colors->cols() == scene.positions_m->cols();
+  const double last_u = camera.width - 1;
+  const double last_v = camera.height - 1;
+
+  std::array<ClipVertex, 3> corners;
+  std::array<ClipVertex, 4> clipped;
+  for (std::size_t t = 0; t + 2 < triangles.size(); t += 3) {
+    bool in_front = false;
+    for (int k = 0; k < 3; ++k) {
+      const int particle = triangles[t + k];
+      corners[k].position_m = optical_positions_m_.col(particle);
+      corners[k].color = has_colors ? Eigen::Vector3f(scene.colors->col(particle)) : Eigen::Vector3f::Ones();
+      in_front = in_front || corners[k].position_m.z() >= camera.min_range_m;
+    }
+    if (!in_front) continue;
+    const int count = clipToNearPlane(corners, camera.min_range_m, &clipped);
+    const Eigen::Vector3d facet_normal =
+        (corners[1].position_m - corners[0].position_m).cross(corners[2].position_m - corners[0].position_m);
+    const float brightness =
+        with_color ? shade(facet_normal, corners[0].position_m + corners[1].position_m + corners[2].position_m) : 1.0f;
+
+    for (int fan = 1; fan + 1 < count; ++fan) {
+      const ClipVertex* vertex[3] = {&clipped[0], &clipped[fan], &clipped[fan + 1]};
+      double su[3], sv[3], inverse_z[3];
+      for (int k = 0; k < 3; ++k) {
+        const Eigen::Vector3d& p = vertex[k]->position_m;
+        inverse_z[k] = 1.0 / p.z();
+        su[k] = camera.fx_px * p.x() * inverse_z[k] + camera.cx_px;
+        sv[k] = camera.fy_px * p.y() * inverse_z[k] + camera.cy_px;
+      }
+      const double area = (su[1] - su[0]) * (sv[2] - sv[0]) - (sv[1] - sv[0]) * (su[2] - su[0]);
+      if (!(std::abs(area) > kMinProjectedArea_px2)) continue;  // also NaN
+      // Pixel centres in the bounding box, clamped to the image before any conversion to int.
+      const double u_low = std::ceil(std::clamp(std::min({su[0], su[1], su[2]}), 0.0, last_u + 1.0));
+      const double u_high = std::floor(std::clamp(std::max({su[0], su[1], su[2]}), -1.0, last_u));
+      const double v_low = std::ceil(std::clamp(std::min({sv[0], sv[1], sv[2]}), 0.0, last_v + 1.0));
+      const double v_high = std::floor(std::clamp(std::max({sv[0], sv[1], sv[2]}), -1.0, last_v));
+      const double inverse_area = 1.0 / area;
+      for (int v = static_cast<int>(v_low); v <= static_cast<int>(v_high); ++v) {
+        for (int u = static_cast<int>(u_low); u <= static_cast<int>(u_high); ++u) {
+          // Barycentric weights from the edge functions, signed by the area: both windings are drawn.
+          const double w0 = ((su[2] - su[1]) * (v - sv[1]) - (sv[2] - sv[1]) * (u - su[1])) * inverse_area;
+          const double w1 = ((su[0] - su[2]) * (v - sv[2]) - (sv[0] - sv[2]) * (u - su[2])) * inverse_area;
+          const double w2 = ((su[1] - su[0]) * (v - sv[0]) - (sv[1] - sv[0]) * (u - su[0])) * inverse_area;
+          if (w0 < 0.0 || w1 < 0.0 || w2 < 0.0) continue;
+          const double inverse_depth = w0 * inverse_z[0] + w1 * inverse_z[1] + w2 * inverse_z[2];
+          const float depth_m = static_cast<float>(1.0 / inverse_depth);
+          const std::size_t pixel = static_cast<std::size_t>(v) * camera.width + u;
+          if (!(depth_m < frame->depth_m[pixel])) continue;
+          frame->depth_m[pixel] = depth_m;
+          frame->mask[pixel] = DepthFrame::kClothMask;
+          if (with_color) {
+            // Perspective-correct: colour / z interpolates linearly in the image, as 1 / z does.
+            const Eigen::Vector3f color =
+                (static_cast<float>(w0 * inverse_z[0]) * vertex[0]->color +
+                 static_cast<float>(w1 * inverse_z[1]) * vertex[1]->color +
+                 static_cast<float>(w2 * inverse_z[2]) * vertex[2]->color) /
+                static_cast<float>(inverse_depth);
+            writeColor(frame, pixel, brightness * color);
+          }
+        }
+      }
+    }
+  }
+}
+
+Eigen::Isometry3d opticalLookAt(const Eigen::Vector3d& eye_m, const Eigen::Vector3d& target_m,
+                                const Eigen::Vector3d& up_axis) {
+  const Eigen::Vector3d forward = (target_m - eye_m).normalized();
+  const Eigen::Vector3d right = forward.cross(up_axis).normalized();
+  const Eigen::Vector3d down = forward.cross(right);
+  Eigen::Isometry3d world_from_optical = Eigen::Isometry3d::Identity();
+  world_from_optical.linear().col(0) = right;
+  world_from_optical.linear().col(1) = down;
+  world_from_optical.linear().col(2) = forward;
+  world_from_optical.translation() = eye_m;
+  return world_from_optical;
+}
+
+double kinectDepthSigma_m(double depth_m) {
+  // Nguyen, Izadi and Lovell (2012), eq. for the axial noise: 0.0012 + 0.0019 (z - 0.4)^2 m.
+  constexpr double kBase_m = 0.0012;
+  constexpr double kQuadratic_per_m = 0.0019;
+  constexpr double kOffset_m = 0.4;
+  const double beyond_m = depth_m - kOffset_m;
+  return kBase_m + kQuadratic_per_m * beyond_m * beyond_m;
+}
+
+void addKinectNoise(std::uint32_t seed, std::uint64_t frame_number, const PinholeCamera& camera, DepthFrame* frame) {
+  const std::uint64_t image_key = splitMix64(splitMix64(seed) ^ frame_number);
+  for (std::size_t pixel = 0; pixel < frame->depth_m.size(); ++pixel) {
+    const float depth_m = frame->depth_m[pixel];
+    if (!std::isfinite(depth_m)) continue;
+    // Box-Muller on two independent uniforms of this pixel's key.
+    const std::uint64_t first = splitMix64(image_key ^ (2 * pixel));
+    const std::uint64_t second = splitMix64(image_key ^ (2 * pixel + 1));
+    const double gaussian = std::sqrt(-2.0 * std::log(unitInterval(first))) * std::cos(kTwoPi * unitInterval(second));
+    const double noisy_m = depth_m + kinectDepthSigma_m(depth_m) * gaussian;
+    frame->depth_m[pixel] = noisy_m >= camera.min_range_m && noisy_m <= camera.max_range_m
+                                ? static_cast<float>(noisy_m)
+                                : std::numeric_limits<float>::quiet_NaN();
+  }
+}
+
+const char* depthNoiseName(DepthNoise noise) { return noise == DepthNoise::kKinect ? "kinect" : "none"; }
+
+bool parseDepthNoiseName(const std::string& name, DepthNoise* noise) {
+  if (name == "none") {
+    *noise = DepthNoise::kNone;
+  } else if (name == "kinect") {
+    *noise = DepthNoise::kKinect;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+}  // namespace cloth_sim::core
