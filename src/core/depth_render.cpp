@@ -107,7 +107,8 @@ void DepthRenderer::render(const PinholeCamera& camera, const Eigen::Isometry3d&
     frame->rgb.clear();
   }
   if (scene.colliders && !scene.colliders->empty()) {
-    castColliders(camera, world_from_optical, *scene.colliders, scene.time_s, with_color, frame);
+    castColliders(camera, world_from_optical, *scene.colliders, scene.time_s, scene.collider_inset_m, with_color,
+                  frame);
   }
   if (scene.positions_m && scene.triangles) rasterizeCloth(camera, world_from_optical, scene, with_color, frame);
   const float max_range_m = static_cast<float>(camera.max_range_m);
@@ -120,91 +121,144 @@ void DepthRenderer::render(const PinholeCamera& camera, const Eigen::Isometry3d&
   }
 }
 
+namespace {
+
+/// Pixels [u_first, u_last] x [v_first, v_last] (inclusive; empty when first > last) that one collider may
+/// cover.
+struct PixelBox {
+  int u_first, u_last, v_first, v_last;
+};
+
+PixelBox wholeImage(const PinholeCamera& camera) { return {0, camera.width - 1, 0, camera.height - 1}; }
+
+/// The pixels the convex hull of `corners` (optical frame) can cover: the box of their projections; the
+/// whole image when one lies nearer than min_range (its projection is then unbounded).
+PixelBox projectedBox(const PinholeCamera& camera, const std::array<Eigen::Vector3d, 8>& corners) {
+  double u_low = std::numeric_limits<double>::infinity();
+  double v_low = u_low;
+  double u_high = -u_low;
+  double v_high = -u_low;
+  for (const Eigen::Vector3d& p : corners) {
+    if (!(p.z() >= camera.min_range_m)) return wholeImage(camera);
+    const double u = camera.fx_px * p.x() / p.z() + camera.cx_px;
+    const double v = camera.fy_px * p.y() / p.z() + camera.cy_px;
+    u_low = std::min(u_low, u);
+    u_high = std::max(u_high, u);
+    v_low = std::min(v_low, v);
+    v_high = std::max(v_high, v);
+  }
+  const auto first = [](double value, int size) {
+    return static_cast<int>(std::ceil(std::clamp(value, 0.0, static_cast<double>(size))));
+  };
+  const auto last = [](double value, int size) {
+    return static_cast<int>(std::floor(std::clamp(value, -1.0, static_cast<double>(size - 1))));
+  };
+  return {first(u_low, camera.width), last(u_high, camera.width), first(v_low, camera.height),
+          last(v_high, camera.height)};
+}
+
+}  // namespace
+
 void DepthRenderer::castColliders(const PinholeCamera& camera, const Eigen::Isometry3d& world_from_optical,
-                                  const ColliderSet& colliders, double time_s, bool with_color, DepthFrame* frame) {
+                                  const ColliderSet& colliders, double time_s, double inset_m, bool with_color,
+                                  DepthFrame* frame) {
   // Every ray is t (the camera centre) + s R d with d = ((u - cx) / fx, (v - cy) / fy, 1) in the optical
-  // frame: d's z is 1, so the parameter s of a hit is its depth z.
+  // frame: d's z is 1, so the parameter s of a hit is its depth z. Each collider is cast over the pixels
+  // its projection can cover, and a hit is kept where it is nearer than what the pixel holds (colliders
+  // in the order planes, spheres, boxes; a tie keeps the first).
   const Eigen::Matrix3d rotation = world_from_optical.linear();
+  const Eigen::Matrix3d optical_from_world = rotation.transpose();
   const Eigen::Vector3d origin_m = world_from_optical.translation();
-  struct PlaneInOptical {
-    Eigen::Vector3d normal;  // optical frame
-    double camera_height_m;  // signed distance of the camera centre from the plane
+  const auto rayOf = [&camera](int u, int v) {
+    return Eigen::Vector3d((u - camera.cx_px) / camera.fx_px, (v - camera.cy_px) / camera.fy_px, 1.0);
   };
-  std::vector<PlaneInOptical> planes;
+  const auto keep = [&](int u, int v, double depth_m, const Eigen::Vector3d& ray, const Eigen::Vector3d& normal) {
+    if (!(depth_m >= camera.min_range_m)) return;
+    const std::size_t pixel = static_cast<std::size_t>(v) * camera.width + u;
+    const float depth = static_cast<float>(depth_m);
+    if (!(depth < frame->depth_m[pixel])) return;
+    frame->depth_m[pixel] = depth;
+    if (with_color) writeColor(frame, pixel, Eigen::Vector3f::Constant(kColliderGrey * shade(normal, ray)));
+  };
+
   for (const PlaneCollider& plane : colliders.planes) {
-    planes.push_back({rotation.transpose() * plane.normal, plane.normal.dot(origin_m) + plane.offset_m});
-  }
-  struct SphereInOptical {
-    Eigen::Vector3d center_m;  // optical frame
-    double radius_m;
-    double camera_term_m2;  // |c|^2 - r^2: negative with the camera inside
-  };
-  std::vector<SphereInOptical> spheres;
-  for (const SphereCollider& sphere : colliders.spheres) {
-    const Eigen::Vector3d center = rotation.transpose() * (sphere.centerAt(time_s) - origin_m);
-    spheres.push_back({center, sphere.radius_m, center.squaredNorm() - sphere.radius_m * sphere.radius_m});
-  }
-  const float min_range_m = static_cast<float>(camera.min_range_m);
-  for (int v = 0; v < camera.height; ++v) {
-    for (int u = 0; u < camera.width; ++u) {
-      const Eigen::Vector3d ray((u - camera.cx_px) / camera.fx_px, (v - camera.cy_px) / camera.fy_px, 1.0);
-      double nearest_m = std::numeric_limits<double>::infinity();
-      Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // optical frame, at the nearest hit
-      const auto take = [&](double depth_m, const Eigen::Vector3d& surface_normal) {
-        if (depth_m >= min_range_m && depth_m < nearest_m) {
-          nearest_m = depth_m;
-          normal = surface_normal;
-        }
-      };
-      for (const PlaneInOptical& plane : planes) {
-        const double rate = plane.normal.dot(ray);
-        if (rate != 0.0) take(-plane.camera_height_m / rate, plane.normal);
+    const Eigen::Vector3d normal = optical_from_world * plane.normal;
+    // Signed, from the plane moved inset_m into the collider (n . x + d = -inset).
+    const double camera_height_m = plane.normal.dot(origin_m) + plane.offset_m + inset_m;
+    for (int v = 0; v < camera.height; ++v) {
+      for (int u = 0; u < camera.width; ++u) {
+        const Eigen::Vector3d ray = rayOf(u, v);
+        const double rate = normal.dot(ray);
+        if (rate != 0.0) keep(u, v, -camera_height_m / rate, ray, normal);
       }
-      for (const SphereInOptical& sphere : spheres) {
+    }
+  }
+  for (const SphereCollider& sphere : colliders.spheres) {
+    const Eigen::Vector3d center = optical_from_world * (sphere.centerAt(time_s) - origin_m);
+    const double radius = sphere.radius_m - inset_m;
+    if (!(radius > 0.0)) continue;
+    const double camera_term_m2 = center.squaredNorm() - radius * radius;  // negative with the camera inside
+    std::array<Eigen::Vector3d, 8> corners;
+    for (int k = 0; k < 8; ++k) {
+      corners[k] = center + radius * Eigen::Vector3d(k & 1 ? 1.0 : -1.0, k & 2 ? 1.0 : -1.0, k & 4 ? 1.0 : -1.0);
+    }
+    const PixelBox box = projectedBox(camera, corners);
+    for (int v = box.v_first; v <= box.v_last; ++v) {
+      for (int u = box.u_first; u <= box.u_last; ++u) {
         // |s d - c|^2 = r^2: a s^2 - 2 b s + k = 0; the near root, or the far one from inside.
+        const Eigen::Vector3d ray = rayOf(u, v);
         const double a = ray.squaredNorm();
-        const double b = ray.dot(sphere.center_m);
-        const double discriminant = b * b - a * sphere.camera_term_m2;
+        const double b = ray.dot(center);
+        const double discriminant = b * b - a * camera_term_m2;
         if (discriminant < 0.0) continue;
         const double root = std::sqrt(discriminant);
-        const double depth_m = sphere.camera_term_m2 > 0.0 ? (b - root) / a : (b + root) / a;
-        take(depth_m, depth_m * ray - sphere.center_m);
+        const double depth_m = camera_term_m2 > 0.0 ? (b - root) / a : (b + root) / a;
+        keep(u, v, depth_m, ray, depth_m * ray - center);
       }
-      if (!colliders.boxes.empty()) {
+    }
+  }
+  for (const BoxCollider& drawn : colliders.boxes) {
+    const BoxCollider box{drawn.min_m.array() + inset_m, drawn.max_m.array() - inset_m};
+    if (!((box.max_m - box.min_m).minCoeff() > 0.0)) continue;
+    std::array<Eigen::Vector3d, 8> corners;
+    for (int k = 0; k < 8; ++k) {
+      const Eigen::Vector3d corner(k & 1 ? box.max_m.x() : box.min_m.x(), k & 2 ? box.max_m.y() : box.min_m.y(),
+                                   k & 4 ? box.max_m.z() : box.min_m.z());
+      corners[k] = optical_from_world * (corner - origin_m);
+    }
+    const PixelBox pixels = projectedBox(camera, corners);
+    for (int v = pixels.v_first; v <= pixels.v_last; ++v) {
+      for (int u = pixels.u_first; u <= pixels.u_last; ++u) {
+        // Slabs (Kay and Kajiya): the ray is inside the box between its last entry and first exit.
+        const Eigen::Vector3d ray = rayOf(u, v);
         const Eigen::Vector3d direction = rotation * ray;  // world frame
-        for (const BoxCollider& box : colliders.boxes) {
-          // Slabs (Kay and Kajiya): the ray is inside the box between its last entry and first exit.
-          double enter = -std::numeric_limits<double>::infinity();
-          double leave = std::numeric_limits<double>::infinity();
-          int enter_axis = 0;
-          int leave_axis = 0;
-          bool missed = false;
-          for (int axis = 0; axis < 3 && !missed; ++axis) {
-            if (direction[axis] == 0.0) {
-              missed = origin_m[axis] < box.min_m[axis] || origin_m[axis] > box.max_m[axis];
-              continue;
-            }
-            const double s1 = (box.min_m[axis] - origin_m[axis]) / direction[axis];
-            const double s2 = (box.max_m[axis] - origin_m[axis]) / direction[axis];
-            if (std::min(s1, s2) > enter) {
-              enter = std::min(s1, s2);
-              enter_axis = axis;
-            }
-            if (std::max(s1, s2) < leave) {
-              leave = std::max(s1, s2);
-              leave_axis = axis;
-            }
+        double enter = -std::numeric_limits<double>::infinity();
+        double leave = std::numeric_limits<double>::infinity();
+        int enter_axis = 0;
+        int leave_axis = 0;
+        bool missed = false;
+        for (int axis = 0; axis < 3 && !missed; ++axis) {
+          if (direction[axis] == 0.0) {
+            missed = origin_m[axis] < box.min_m[axis] || origin_m[axis] > box.max_m[axis];
+            continue;
           }
-          if (missed || enter > leave || leave <= 0.0) continue;
-          const bool from_outside = enter > 0.0;
-          take(from_outside ? enter : leave,
-               rotation.transpose() * Eigen::Vector3d::Unit(from_outside ? enter_axis : leave_axis));
+          const double inverse = 1.0 / direction[axis];
+          const double s1 = (box.min_m[axis] - origin_m[axis]) * inverse;
+          const double s2 = (box.max_m[axis] - origin_m[axis]) * inverse;
+          if (std::min(s1, s2) > enter) {
+            enter = std::min(s1, s2);
+            enter_axis = axis;
+          }
+          if (std::max(s1, s2) < leave) {
+            leave = std::max(s1, s2);
+            leave_axis = axis;
+          }
         }
+        if (missed || enter > leave || leave <= 0.0) continue;
+        const bool from_outside = enter > 0.0;
+        keep(u, v, from_outside ? enter : leave, ray,
+             optical_from_world * Eigen::Vector3d::Unit(from_outside ? enter_axis : leave_axis));
       }
-      if (!std::isfinite(nearest_m)) continue;
-      const std::size_t pixel = static_cast<std::size_t>(v) * camera.width + u;
-      frame->depth_m[pixel] = static_cast<float>(nearest_m);
-      if (with_color) writeColor(frame, pixel, Eigen::Vector3f::Constant(kColliderGrey * shade(normal, ray)));
     }
   }
 }
@@ -278,6 +332,11 @@ void DepthRenderer::rasterizeCloth(const PinholeCamera& camera, const Eigen::Iso
       }
     }
   }
+}
+
+double colliderInset_m(const ContactOptions& contact) {
+  constexpr double kMinInset_m = 0.001;
+  return std::max(2.0 * contact.depth_m, kMinInset_m);
 }
 
 Eigen::Isometry3d opticalLookAt(const Eigen::Vector3d& eye_m, const Eigen::Vector3d& target_m,

@@ -128,6 +128,7 @@ void DepthCameras::publishCamera(Camera& camera, const core::Simulation& simulat
   scene.colors = &simulation.vertexColors();
   scene.colliders = &simulation.options().colliders;
   scene.time_s = simulation.state().time_s;
+  scene.collider_inset_m = core::colliderInset_m(simulation.options().contact);
   const bool with_color = camera.color_pub.getNumSubscribers() > 0;
   camera.renderer.render(camera.pinhole, world_from_optical, scene, with_color, &camera.frame);
   if (camera.options.noise == core::DepthNoise::kKinect) {

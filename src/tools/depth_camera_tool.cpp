@@ -161,6 +161,7 @@ int main(int argc, char** argv) {
   view.colors = &simulation.vertexColors();
   view.colliders = &simulation.options().colliders;
   view.time_s = simulation.state().time_s;
+  view.collider_inset_m = core::colliderInset_m(simulation.options().contact);
   core::DepthRenderer renderer;
   core::DepthFrame frame;
   const auto time = [&](bool with_color) {

@@ -229,6 +229,42 @@ TEST(DepthRender, CollidersHaveTheirAnalyticDepths) {
   EXPECT_EQ(hidden.mask[pixelIndex(hidden, 160, 120)], 0);
 }
 
+// A cloth resting on a collider lies up to the contact band inside it: with the scene's inset (twice
+// the band) the cloth is seen, not the collider through it, and the collider's face is drawn that far in.
+TEST(DepthRender, AClothInTheContactBandIsSeenOverItsCollider) {
+  CameraOptions odd;
+  odd.width = 321;
+  odd.height = 241;
+  odd.cx_px = 160.0;
+  odd.cy_px = 120.0;
+  const PinholeCamera camera = PinholeCamera::from(odd);
+  const Eigen::Isometry3d level = opticalLookAt({0.0, -2.0, 1.0}, {0.0, 0.0, 1.0}, Eigen::Vector3d::UnitZ());
+  ContactOptions contact;  // a 2 mm band
+  ColliderSet wall;
+  wall.boxes.push_back({Eigen::Vector3d(-1.0, 0.0, 0.0), Eigen::Vector3d(1.0, 1.0, 2.0)});  // its face at y = 0
+  ClothGrid grid = flatCloth(8, 0.0);
+  Eigen::Matrix3Xd resting = grid.rest_positions_m;
+  resting.row(1).setConstant(contact.depth_m * 0.9);  // just inside the face, within the band
+  RenderScene scene;
+  scene.positions_m = &resting;
+  scene.triangles = &grid.triangles;
+  scene.colliders = &wall;
+  scene.collider_inset_m = colliderInset_m(contact);
+  EXPECT_EQ(scene.collider_inset_m, 2.0 * contact.depth_m);
+  DepthRenderer renderer;
+  DepthFrame frame;
+  renderer.render(camera, level, scene, false, &frame);
+  const std::size_t centre = pixelIndex(frame, 160, 120);
+  EXPECT_EQ(frame.mask[centre], DepthFrame::kClothMask);
+  EXPECT_NEAR(frame.depth_m[centre], 2.0 + 0.9 * contact.depth_m, 1e-5);
+  const std::size_t off_cloth = pixelIndex(frame, 10, 120);  // the wall beside the cloth
+  EXPECT_EQ(frame.mask[off_cloth], 0);
+  EXPECT_NEAR(frame.depth_m[off_cloth], 2.0 + scene.collider_inset_m, 1e-5);
+  scene.collider_inset_m = 0.0;  // without it the collider hides the cloth: what the inset is for
+  renderer.render(camera, level, scene, false, &frame);
+  EXPECT_EQ(frame.mask[centre], 0);
+}
+
 // Outside [min_range, max_range] nothing is seen; a cloth crossing the near plane is cut there, not lost.
 TEST(DepthRender, RangesClipTheImage) {
   const ClothGrid grid = flatCloth(16, 0.0);

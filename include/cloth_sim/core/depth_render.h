@@ -55,7 +55,14 @@ struct RenderScene {
   const Eigen::Matrix3Xf* colors = nullptr;        ///< 3 x N, RGB in [0, 1]; null: white
   const ColliderSet* colliders = nullptr;          ///< null: none
   double time_s = 0.0;                             ///< where moving spheres are
+  /// Colliders are drawn this far inside their surfaces, m (colliderInset_m), as rviz draws them inset:
+  /// a cloth resting on a collider lies up to the contact band inside it, and would show it through.
+  double collider_inset_m = 0.0;
 };
+
+/// The inset for a scene's contact options: twice the contact band (particles lie up to one band deep,
+/// and the triangles between them a little more over an edge), and at least 1 mm.
+double colliderInset_m(const ContactOptions& contact);
 
 /// Renders into a DepthFrame; keeps its scratch buffers between calls (one renderer per camera).
 class DepthRenderer {
@@ -68,7 +75,8 @@ class DepthRenderer {
 
  private:
   void castColliders(const PinholeCamera& camera, const Eigen::Isometry3d& world_from_optical,
-                     const ColliderSet& colliders, double time_s, bool with_color, DepthFrame* frame);
+                     const ColliderSet& colliders, double time_s, double inset_m, bool with_color,
+                     DepthFrame* frame);
   void rasterizeCloth(const PinholeCamera& camera, const Eigen::Isometry3d& world_from_optical,
                       const RenderScene& scene, bool with_color, DepthFrame* frame);
 
