@@ -263,73 +263,123 @@ void DepthRenderer::castColliders(const PinholeCamera& camera, const Eigen::Isom
   }
 }
 
+namespace {
+
+/// One triangle in the image: pixel coordinates, 1 / z and colour per corner.
+struct ScreenTriangle {
+  double u[3];
+  double v[3];
+  double inverse_z[3];
+  const Eigen::Vector3f* color[3];
+};
+
+/// Fills the pixel centres inside the triangle (either winding: both sides are seen) where it is nearer
+/// than what the pixel holds: depth from the barycentric interpolation of 1 / z (linear in the image,
+/// so exact for the triangle's plane), colour perspective-correct, times `brightness`.
+void fillTriangle(const PinholeCamera& camera, const ScreenTriangle& t, bool with_color, float brightness,
+                  DepthFrame* frame) {
+  const double area = (t.u[1] - t.u[0]) * (t.v[2] - t.v[0]) - (t.v[1] - t.v[0]) * (t.u[2] - t.u[0]);
+  if (!(std::abs(area) > kMinProjectedArea_px2)) return;  // also NaN
+  // Pixel centres in the bounding box, clamped to the image before any conversion to int.
+  const double last_u = camera.width - 1;
+  const double last_v = camera.height - 1;
+  const double u_low = std::ceil(std::clamp(std::min({t.u[0], t.u[1], t.u[2]}), 0.0, last_u + 1.0));
+  const double u_high = std::floor(std::clamp(std::max({t.u[0], t.u[1], t.u[2]}), -1.0, last_u));
+  const double v_low = std::ceil(std::clamp(std::min({t.v[0], t.v[1], t.v[2]}), 0.0, last_v + 1.0));
+  const double v_high = std::floor(std::clamp(std::max({t.v[0], t.v[1], t.v[2]}), -1.0, last_v));
+  const double inverse_area = 1.0 / area;
+  for (int v = static_cast<int>(v_low); v <= static_cast<int>(v_high); ++v) {
+    for (int u = static_cast<int>(u_low); u <= static_cast<int>(u_high); ++u) {
+      // Barycentric weights from the edge functions, signed by the area.
+      const double w0 = ((t.u[2] - t.u[1]) * (v - t.v[1]) - (t.v[2] - t.v[1]) * (u - t.u[1])) * inverse_area;
+      const double w1 = ((t.u[0] - t.u[2]) * (v - t.v[2]) - (t.v[0] - t.v[2]) * (u - t.u[2])) * inverse_area;
+      const double w2 = ((t.u[1] - t.u[0]) * (v - t.v[0]) - (t.v[1] - t.v[0]) * (u - t.u[0])) * inverse_area;
+      if (w0 < 0.0 || w1 < 0.0 || w2 < 0.0) continue;
+      const double inverse_depth = w0 * t.inverse_z[0] + w1 * t.inverse_z[1] + w2 * t.inverse_z[2];
+      const float depth_m = static_cast<float>(1.0 / inverse_depth);
+      const std::size_t pixel = static_cast<std::size_t>(v) * camera.width + u;
+      if (!(depth_m < frame->depth_m[pixel])) continue;
+      frame->depth_m[pixel] = depth_m;
+      frame->mask[pixel] = DepthFrame::kClothMask;
+      if (with_color) {
+        // Colour / z interpolates linearly in the image, as 1 / z does.
+        const Eigen::Vector3f color = (static_cast<float>(w0 * t.inverse_z[0]) * *t.color[0] +
+                                       static_cast<float>(w1 * t.inverse_z[1]) * *t.color[1] +
+                                       static_cast<float>(w2 * t.inverse_z[2]) * *t.color[2]) /
+                                      static_cast<float>(inverse_depth);
+        writeColor(frame, pixel, brightness * color);
+      }
+    }
+  }
+}
+
+}  // namespace
+
 void DepthRenderer::rasterizeCloth(const PinholeCamera& camera, const Eigen::Isometry3d& world_from_optical,
                                    const RenderScene& scene, bool with_color, DepthFrame* frame) {
   const Eigen::Matrix3d optical_from_world = world_from_optical.linear().transpose();
   optical_positions_m_ = optical_from_world * (scene.positions_m->colwise() - world_from_optical.translation());
+  const Eigen::Index count = optical_positions_m_.cols();
+  // Each vertex projected once (a grid vertex is shared by up to six triangles): u, v, 1 / z; only
+  // meaningful for vertices at or beyond the near plane (triangles with one nearer are clipped first).
+  projected_.resize(3, count);
+  for (Eigen::Index i = 0; i < count; ++i) {
+    const Eigen::Vector3d p = optical_positions_m_.col(i);
+    const double inverse_z = 1.0 / p.z();
+    projected_.col(i) << camera.fx_px * p.x() * inverse_z + camera.cx_px, camera.fy_px * p.y() * inverse_z + camera.cy_px,
+        inverse_z;
+  }
   const std::vector<int>& triangles = *scene.triangles;
-  const bool has_colors = scene.colors && scene.colors->cols() == scene.positions_m->cols();
-  const double last_u = camera.width - 1;
-  const double last_v = camera.height - 1;
+  const bool has_colors = scene.colors && scene.colors->cols() == count;
+  const Eigen::Vector3f white = Eigen::Vector3f::Ones();
+  colors_.resize(static_cast<std::size_t>(count));
+  for (Eigen::Index i = 0; i < count; ++i) colors_[static_cast<std::size_t>(i)] = has_colors ? Eigen::Vector3f(scene.colors->col(i)) : white;
 
   std::array<ClipVertex, 3> corners;
   std::array<ClipVertex, 4> clipped;
+  ScreenTriangle screen;
   for (std::size_t t = 0; t + 2 < triangles.size(); t += 3) {
-    bool in_front = false;
-    for (int k = 0; k < 3; ++k) {
-      const int particle = triangles[t + k];
-      corners[k].position_m = optical_positions_m_.col(particle);
-      corners[k].color = has_colors ? Eigen::Vector3f(scene.colors->col(particle)) : Eigen::Vector3f::Ones();
-      in_front = in_front || corners[k].position_m.z() >= camera.min_range_m;
+    const int a = triangles[t];
+    const int b = triangles[t + 1];
+    const int c = triangles[t + 2];
+    const int in_front = (optical_positions_m_(2, a) >= camera.min_range_m ? 1 : 0) +
+                         (optical_positions_m_(2, b) >= camera.min_range_m ? 1 : 0) +
+                         (optical_positions_m_(2, c) >= camera.min_range_m ? 1 : 0);
+    if (in_front == 0) continue;
+    float brightness = 1.0f;
+    if (with_color) {
+      const Eigen::Vector3d pa = optical_positions_m_.col(a);
+      const Eigen::Vector3d pb = optical_positions_m_.col(b);
+      const Eigen::Vector3d pc = optical_positions_m_.col(c);
+      brightness = shade((pb - pa).cross(pc - pa), pa + pb + pc);
     }
-    if (!in_front) continue;
-    const int count = clipToNearPlane(corners, camera.min_range_m, &clipped);
-    const Eigen::Vector3d facet_normal =
-        (corners[1].position_m - corners[0].position_m).cross(corners[2].position_m - corners[0].position_m);
-    const float brightness =
-        with_color ? shade(facet_normal, corners[0].position_m + corners[1].position_m + corners[2].position_m) : 1.0f;
-
-    for (int fan = 1; fan + 1 < count; ++fan) {
+    if (in_front == 3) {  // the common case: no clipping, the vertices' projections as they are
+      const int corner[3] = {a, b, c};
+      for (int k = 0; k < 3; ++k) {
+        screen.u[k] = projected_(0, corner[k]);
+        screen.v[k] = projected_(1, corner[k]);
+        screen.inverse_z[k] = projected_(2, corner[k]);
+        screen.color[k] = &colors_[static_cast<std::size_t>(corner[k])];
+      }
+      fillTriangle(camera, screen, with_color, brightness, frame);
+      continue;
+    }
+    const int corner[3] = {a, b, c};
+    for (int k = 0; k < 3; ++k) {
+      corners[k].position_m = optical_positions_m_.col(corner[k]);
+      corners[k].color = colors_[static_cast<std::size_t>(corner[k])];
+    }
+    const int clipped_count = clipToNearPlane(corners, camera.min_range_m, &clipped);
+    for (int fan = 1; fan + 1 < clipped_count; ++fan) {
       const ClipVertex* vertex[3] = {&clipped[0], &clipped[fan], &clipped[fan + 1]};
-      double su[3], sv[3], inverse_z[3];
       for (int k = 0; k < 3; ++k) {
         const Eigen::Vector3d& p = vertex[k]->position_m;
-        inverse_z[k] = 1.0 / p.z();
-        su[k] = camera.fx_px * p.x() * inverse_z[k] + camera.cx_px;
-        sv[k] = camera.fy_px * p.y() * inverse_z[k] + camera.cy_px;
+        screen.inverse_z[k] = 1.0 / p.z();
+        screen.u[k] = camera.fx_px * p.x() * screen.inverse_z[k] + camera.cx_px;
+        screen.v[k] = camera.fy_px * p.y() * screen.inverse_z[k] + camera.cy_px;
+        screen.color[k] = &vertex[k]->color;
       }
-      const double area = (su[1] - su[0]) * (sv[2] - sv[0]) - (sv[1] - sv[0]) * (su[2] - su[0]);
-      if (!(std::abs(area) > kMinProjectedArea_px2)) continue;  // also NaN
-      // Pixel centres in the bounding box, clamped to the image before any conversion to int.
-      const double u_low = std::ceil(std::clamp(std::min({su[0], su[1], su[2]}), 0.0, last_u + 1.0));
-      const double u_high = std::floor(std::clamp(std::max({su[0], su[1], su[2]}), -1.0, last_u));
-      const double v_low = std::ceil(std::clamp(std::min({sv[0], sv[1], sv[2]}), 0.0, last_v + 1.0));
-      const double v_high = std::floor(std::clamp(std::max({sv[0], sv[1], sv[2]}), -1.0, last_v));
-      const double inverse_area = 1.0 / area;
-      for (int v = static_cast<int>(v_low); v <= static_cast<int>(v_high); ++v) {
-        for (int u = static_cast<int>(u_low); u <= static_cast<int>(u_high); ++u) {
-          // Barycentric weights from the edge functions, signed by the area: both windings are drawn.
-          const double w0 = ((su[2] - su[1]) * (v - sv[1]) - (sv[2] - sv[1]) * (u - su[1])) * inverse_area;
-          const double w1 = ((su[0] - su[2]) * (v - sv[2]) - (sv[0] - sv[2]) * (u - su[2])) * inverse_area;
-          const double w2 = ((su[1] - su[0]) * (v - sv[0]) - (sv[1] - sv[0]) * (u - su[0])) * inverse_area;
-          if (w0 < 0.0 || w1 < 0.0 || w2 < 0.0) continue;
-          const double inverse_depth = w0 * inverse_z[0] + w1 * inverse_z[1] + w2 * inverse_z[2];
-          const float depth_m = static_cast<float>(1.0 / inverse_depth);
-          const std::size_t pixel = static_cast<std::size_t>(v) * camera.width + u;
-          if (!(depth_m < frame->depth_m[pixel])) continue;
-          frame->depth_m[pixel] = depth_m;
-          frame->mask[pixel] = DepthFrame::kClothMask;
-          if (with_color) {
-            // Perspective-correct: colour / z interpolates linearly in the image, as 1 / z does.
-            const Eigen::Vector3f color =
-                (static_cast<float>(w0 * inverse_z[0]) * vertex[0]->color +
-                 static_cast<float>(w1 * inverse_z[1]) * vertex[1]->color +
-                 static_cast<float>(w2 * inverse_z[2]) * vertex[2]->color) /
-                static_cast<float>(inverse_depth);
-            writeColor(frame, pixel, brightness * color);
-          }
-        }
-      }
+      fillTriangle(camera, screen, with_color, brightness, frame);
     }
   }
 }

@@ -1,5 +1,5 @@
 // depth_camera_tool: the depth renderer on its own, without ROS. Settles a scene, then
-//   - times one camera image (median of --repeat renders, depth only and depth + colour), and
+//   - times one camera image (median and minimum of --repeat renders, depth only and depth + colour), and
 //   - with --out DIR, writes what the camera sees (depth.f32, rgb.u8, mask.u8, camera.json) for
 //     scripts/camera_picture.py, which draws the depth image and its point cloud (doc/images/camera_drape.png).
 //
@@ -20,6 +20,7 @@
 #include <iostream>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace {
@@ -171,15 +172,18 @@ int main(int argc, char** argv) {
       renderer.render(camera, pose, view, with_color, &frame);
       costs_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
     }
-    return medianOf(costs_ms);
+    // The median, and the minimum: on a shared machine the fastest render is the best estimate of the
+    // cost on a core of its own.
+    return std::make_pair(medianOf(costs_ms), *std::min_element(costs_ms.begin(), costs_ms.end()));
   };
-  const double depth_ms = time(false);
-  const double color_ms = time(true);
+  const auto [depth_ms, depth_min_ms] = time(false);
+  const auto [color_ms, color_min_ms] = time(true);
   const long seen = std::count_if(frame.mask.begin(), frame.mask.end(), [](std::uint8_t m) { return m != 0; });
   std::printf("{\"scene\": \"%s\", \"rows\": %d, \"cols\": %d, \"triangles\": %zu, \"width\": %d, \"height\": %d, "
-              "\"cloth_pixels\": %ld, \"repeat\": %d, \"depth_ms\": %.3f, \"depth_and_color_ms\": %.3f}\n",
+              "\"cloth_pixels\": %ld, \"repeat\": %d, \"depth_ms\": %.3f, \"depth_min_ms\": %.3f, "
+              "\"depth_and_color_ms\": %.3f, \"depth_and_color_min_ms\": %.3f}\n",
               scene.name.c_str(), scene.rows, scene.cols, simulation.grid().triangles.size() / 3, camera.width,
-              camera.height, seen, options.repeat, depth_ms, color_ms);
+              camera.height, seen, options.repeat, depth_ms, depth_min_ms, color_ms, color_min_ms);
 
   if (!options.out_dir.empty()) {
     std::ofstream meta(options.out_dir + "/camera.json");

@@ -81,6 +81,8 @@ class DepthRenderer {
                       const RenderScene& scene, bool with_color, DepthFrame* frame);
 
   Eigen::Matrix3Xd optical_positions_m_;  ///< the cloth's vertices in the optical frame
+  Eigen::Matrix3Xd projected_;            ///< per vertex: u, v (pixels), 1 / z (1/m)
+  std::vector<Eigen::Vector3f> colors_;   ///< per vertex, RGB in [0, 1]
 };
 
 /// The optical frame (z forward, x right, y down) of a camera at eye_m looking at target_m with up_axis
