@@ -90,7 +90,7 @@ bool ClothNode::start(std::string* error) {
   state_pub_ = pnh_.advertise<cloth_sim::ClothState>(Names::kStateTopic, 2);
   colliders_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>(Names::kCollidersTopic, 2);
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_);
-  cameras_ = std::make_unique<DepthCameras>(pnh_, tf_buffer_, frame_id_);
+  cameras_ = std::make_unique<DepthCameras>(pnh_, tf_buffer_, frame_id_, simulation_->options().cameras);
   wind_sub_ = pnh_.subscribe(Names::kWindTopic, 10, &ClothNode::onWind, this);
   grasp_sub_ = pnh_.subscribe(Names::kGraspTopic, 10, &ClothNode::onGrasp, this);
   reset_srv_ = pnh_.advertiseService(Names::kResetService, &ClothNode::onReset, this);

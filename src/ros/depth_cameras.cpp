@@ -8,6 +8,7 @@
 #include <tf2/exceptions.h>
 
 #include <chrono>
+#include <cmath>
 #include <sstream>
 
 namespace cloth_sim {
@@ -67,9 +68,10 @@ struct DepthCameras::Camera {
 };
 
 DepthCameras::DepthCameras(const ros::NodeHandle& private_handle, const tf2_ros::Buffer& tf_buffer,
-                           std::string world_frame)
+                           std::string world_frame, const std::vector<core::CameraOptions>& cameras)
     : pnh_(private_handle), tf_buffer_(tf_buffer), world_frame_(std::move(world_frame)) {
   points_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>(SensorTopics::kPoints, kQueueSize);
+  configure(cameras);
 }
 
 DepthCameras::~DepthCameras() = default;
@@ -163,10 +165,12 @@ bool DepthCameras::lookupPose(const Camera& camera, const ros::Time& stamp, Eige
       *problem = "no pose for frame '" + frame + "' in '" + world_frame_ + "': " + e.what();
       return false;
     }
+    // Usually older than the image; newer only when the image's time is before tf's buffer (then the
+    // pose is as far from the image's time the other way).
     const double age_s = (stamp - transform.header.stamp).toSec();
-    if (age_s > kMaxPoseAge_s) {
+    if (std::abs(age_s) > kMaxPoseAge_s) {
       std::ostringstream out;
-      out << "the newest pose of frame '" << frame << "' is " << age_s << " s older than the image (at most "
+      out << "the newest pose of frame '" << frame << "' is " << age_s << " s away from the image's time (at most "
           << kMaxPoseAge_s << " s)";
       *problem = out.str();
       return false;

@@ -29,12 +29,14 @@ struct SensorTopics {
 
 class DepthCameras {
  public:
-  /// A camera's pose may be this much older than its image when tf has nothing newer (a robot's frames
-  /// arrive after the frame's time): the newest pose is used then; older ones drop the image.
+  /// When tf has no pose at the image's time (a robot's frames arrive after the frame's time), its newest
+  /// pose is used if it is within this much of the image's time; otherwise the image is dropped.
   static constexpr double kMaxPoseAge_s = 0.1;
 
-  /// world_frame: the simulation's frame (~frame_id); tf_buffer must outlive this object.
-  DepthCameras(const ros::NodeHandle& private_handle, const tf2_ros::Buffer& tf_buffer, std::string world_frame);
+  /// world_frame: the simulation's frame (~frame_id); tf_buffer must outlive this object. The cameras'
+  /// topics are advertised at once (under /use_sim_time nothing is published before the first /clock).
+  DepthCameras(const ros::NodeHandle& private_handle, const tf2_ros::Buffer& tf_buffer, std::string world_frame,
+               const std::vector<core::CameraOptions>& cameras);
   ~DepthCameras();
 
   /// Publishes what is due and subscribed at `stamp`: ~points every call, each camera at its rate. The
