@@ -427,17 +427,4 @@ void addKinectNoise(std::uint32_t seed, std::uint64_t frame_number, const Pinhol
   }
 }
 
-const char* depthNoiseName(DepthNoise noise) { return noise == DepthNoise::kKinect ? "kinect" : "none"; }
-
-bool parseDepthNoiseName(const std::string& name, DepthNoise* noise) {
-  if (name == "none") {
-    *noise = DepthNoise::kNone;
-  } else if (name == "kinect") {
-    *noise = DepthNoise::kKinect;
-  } else {
-    return false;
-  }
-  return true;
-}
-
 }  // namespace cloth_sim::core
