@@ -3,7 +3,9 @@
 #include "cloth_sim/core/constants.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <set>
 #include <sstream>
 
 namespace cloth_sim::core {
@@ -86,6 +88,55 @@ double pinTravelSpeed_m_per_s(const SceneOptions& o, const std::vector<int>& pin
     longest_m = std::max(longest_m, (o.pin_positions_m[p] - start_m).norm());
   }
   return kSmoothstepPeakRate * longest_m / o.pin_travel_time_s;
+}
+
+/// A camera's name becomes a topic namespace (~<name>/depth/...): a letter, then letters, digits or '_'.
+bool isTopicName(const std::string& name) {
+  if (name.empty() || !std::isalpha(static_cast<unsigned char>(name[0]))) return false;
+  return std::all_of(name.begin(), name.end(),
+                     [](char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; });
+}
+
+/// The cameras' fields, each problem naming cameras[i].field, its value and the range.
+void validateCameras(const std::vector<CameraOptions>& cameras, Problems& problems) {
+  using C = CameraLimits;
+  if (cameras.size() > static_cast<std::size_t>(C::kMaxCameras)) {
+    problems.fail("cameras: " + std::to_string(cameras.size()) + " cameras: at most " +
+                  std::to_string(C::kMaxCameras));
+  }
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < cameras.size(); ++i) {
+    const CameraOptions& c = cameras[i];
+    const std::string shown_name = c.name.substr(0, kMaxQuotedSelectorChars);
+    if (!isTopicName(c.name)) {
+      problems.fail(indexed("cameras", i, "name") + " = '" + shown_name +
+                    "': must be a letter followed by letters, digits or '_' (it names the camera's topics)");
+    } else if (!names.insert(c.name).second) {
+      problems.fail(indexed("cameras", i, "name") + " = '" + shown_name + "': another camera has this name");
+    }
+    if (c.frame.empty() || c.frame[0] == '/') {
+      problems.fail(indexed("cameras", i, "frame") + " = '" + c.frame.substr(0, kMaxQuotedSelectorChars) +
+                    "': must be a non-empty tf frame name without a leading '/'");
+    }
+    problems.inRange(indexed("cameras", i, "width"), c.width, 1, C::kMaxImageSide);
+    problems.inRange(indexed("cameras", i, "height"), c.height, 1, C::kMaxImageSide);
+    problems.positive(indexed("cameras", i, "fx"), c.fx_px, C::kMaxFocalLength_px);
+    problems.positive(indexed("cameras", i, "fy"), c.fy_px, C::kMaxFocalLength_px);
+    // The principal point may lie off the image (a crop), but not absurdly far.
+    problems.inRange(indexed("cameras", i, "cx"), c.cx_px, -static_cast<double>(C::kMaxImageSide),
+                     2.0 * C::kMaxImageSide);
+    problems.inRange(indexed("cameras", i, "cy"), c.cy_px, -static_cast<double>(C::kMaxImageSide),
+                     2.0 * C::kMaxImageSide);
+    problems.positive(indexed("cameras", i, "rate"), c.rate_hz, C::kMaxRateHz);
+    problems.positive(indexed("cameras", i, "min_range"), c.min_range_m, C::kMaxRange_m);
+    problems.positive(indexed("cameras", i, "max_range"), c.max_range_m, C::kMaxRange_m);
+    if (c.min_range_m >= c.max_range_m) {
+      std::ostringstream out;
+      out << indexed("cameras", i, "min_range") << " = " << c.min_range_m << " m: must be below max_range = "
+          << c.max_range_m << " m";
+      problems.fail(out.str());
+    }
+  }
 }
 
 }  // namespace
@@ -185,6 +236,7 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   problems.inRange("solver_max_iterations", o.solver.max_iterations, 1, L::kMaxSolverIterations);
   problems.inRange("threads", o.threads, 1, L::kMaxThreads);
   problems.inRange("frame_rate", o.frame_rate_hz, L::kMinFrameRateHz, L::kMaxFrameRateHz);
+  validateCameras(o.cameras, problems);
   return problems.take();
 }
 

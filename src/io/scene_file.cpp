@@ -114,6 +114,37 @@ std::vector<T> readList(const YAML::Node& node, const std::vector<std::string>& 
   return items;
 }
 
+/// The `cameras` list: each entry a map of CameraOptions' keys; one without cx / cy gets the centre of
+/// its image.
+std::vector<CameraOptions> readCameras(const YAML::Node& node) {
+  std::vector<CameraOptions> cameras = readList<CameraOptions>(
+      node, {"name", "frame", "width", "height", "fx", "fy", "cx", "cy", "rate", "min_range", "max_range", "noise", "seed"},
+      [](const std::string& f, const YAML::Node& v, CameraOptions& c) {
+        if (f == "name") c.name = readString(v);
+        if (f == "frame") c.frame = readString(v);
+        if (f == "width") c.width = readInt(v);
+        if (f == "height") c.height = readInt(v);
+        if (f == "fx") c.fx_px = readDouble(v);
+        if (f == "fy") c.fy_px = readDouble(v);
+        if (f == "cx") c.cx_px = readDouble(v);
+        if (f == "cy") c.cy_px = readDouble(v);
+        if (f == "rate") c.rate_hz = readDouble(v);
+        if (f == "min_range") c.min_range_m = readDouble(v);
+        if (f == "max_range") c.max_range_m = readDouble(v);
+        if (f == "noise" && !parseDepthNoiseName(readString(v), &c.noise)) throw WrongType{"maps whose noise is none or kinect"};
+        if (f == "seed") {
+          const int seed = readInt(v);
+          if (seed < 0) throw WrongType{"maps whose seed is an integer >= 0"};
+          c.seed = static_cast<std::uint32_t>(seed);
+        }
+      });
+  for (std::size_t i = 0; i < cameras.size(); ++i) {
+    if (!node[i]["cx"]) cameras[i].cx_px = 0.5 * (cameras[i].width - 1);
+    if (!node[i]["cy"]) cameras[i].cy_px = 0.5 * (cameras[i].height - 1);
+  }
+  return cameras;
+}
+
 using Setter = std::function<void(const YAML::Node&, SceneOptions&)>;
 
 std::map<std::string, Setter> makeSetters() {
@@ -218,6 +249,7 @@ std::map<std::string, Setter> makeSetters() {
   s["solver_max_iterations"] = [](const YAML::Node& n, SceneOptions& o) { o.solver.max_iterations = readInt(n); };
   s["frame_rate"] = [](const YAML::Node& n, SceneOptions& o) { o.frame_rate_hz = readDouble(n); };
   s["texture"] = [](const YAML::Node& n, SceneOptions& o) { o.texture = readString(n); };
+  s["cameras"] = [](const YAML::Node& n, SceneOptions& o) { o.cameras = readCameras(n); };
   return s;
 }
 
@@ -516,6 +548,25 @@ std::string sceneYaml(const SceneOptions& o) {
   number("frame_rate", o.frame_rate_hz);
   key("texture");
   emitString(out, o.texture);
+  key("cameras") << YAML::BeginSeq;
+  for (const CameraOptions& camera : o.cameras) {
+    out << YAML::BeginMap << YAML::Key << "name" << YAML::Value;
+    emitString(out, camera.name);
+    out << YAML::Key << "frame" << YAML::Value;
+    emitString(out, camera.frame);
+    out << YAML::Key << "width" << YAML::Value << camera.width;
+    out << YAML::Key << "height" << YAML::Value << camera.height;
+    out << YAML::Key << "fx" << YAML::Value << exactNumber(camera.fx_px);
+    out << YAML::Key << "fy" << YAML::Value << exactNumber(camera.fy_px);
+    out << YAML::Key << "cx" << YAML::Value << exactNumber(camera.cx_px);
+    out << YAML::Key << "cy" << YAML::Value << exactNumber(camera.cy_px);
+    out << YAML::Key << "rate" << YAML::Value << exactNumber(camera.rate_hz);
+    out << YAML::Key << "min_range" << YAML::Value << exactNumber(camera.min_range_m);
+    out << YAML::Key << "max_range" << YAML::Value << exactNumber(camera.max_range_m);
+    out << YAML::Key << "noise" << YAML::Value << depthNoiseName(camera.noise);
+    out << YAML::Key << "seed" << YAML::Value << camera.seed << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";
 }

@@ -90,6 +90,7 @@ bool ClothNode::start(std::string* error) {
   state_pub_ = pnh_.advertise<cloth_sim::ClothState>(Names::kStateTopic, 2);
   colliders_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>(Names::kCollidersTopic, 2);
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_);
+  cameras_ = std::make_unique<DepthCameras>(pnh_, tf_buffer_, frame_id_, simulation_->options().cameras);
   wind_sub_ = pnh_.subscribe(Names::kWindTopic, 10, &ClothNode::onWind, this);
   grasp_sub_ = pnh_.subscribe(Names::kGraspTopic, 10, &ClothNode::onGrasp, this);
   reset_srv_ = pnh_.advertiseService(Names::kResetService, &ClothNode::onReset, this);
@@ -119,6 +120,7 @@ bool ClothNode::start(std::string* error) {
 
   diagnostics_.setHardwareID("cloth_sim");
   diagnostics_.add("simulation", this, &ClothNode::diagnose);
+  diagnostics_.add("cameras", cameras_.get(), &DepthCameras::diagnose);
   window_start_ = std::chrono::steady_clock::now();
 
   if (!parent_frame.empty()) {
@@ -309,6 +311,7 @@ void ClothNode::publish(const ros::Time& stamp) {
   }
   const auto transforms = toSphereTransforms(*simulation_, frame_id_, stamp);
   if (!transforms.empty()) tf_broadcaster_.sendTransform(transforms);
+  cameras_->publish(*simulation_, stamp);  // ~points and the cameras, each only while subscribed
 }
 
 void ClothNode::onWind(const geometry_msgs::Vector3Stamped::ConstPtr& message) {

@@ -119,6 +119,17 @@ bool sameBits(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   check(a.threads == b.threads, "threads");
   check(sameBits(a.frame_rate_hz, b.frame_rate_hz), "frame_rate");
   check(a.texture == b.texture, "texture");
+  bool same_cameras = a.cameras.size() == b.cameras.size();
+  for (std::size_t i = 0; same_cameras && i < a.cameras.size(); ++i) {
+    const CameraOptions& x = a.cameras[i];
+    const CameraOptions& y = b.cameras[i];
+    same_cameras = x.name == y.name && x.frame == y.frame && x.width == y.width && x.height == y.height &&
+                   sameBits(x.fx_px, y.fx_px) && sameBits(x.fy_px, y.fy_px) && sameBits(x.cx_px, y.cx_px) &&
+                   sameBits(x.cy_px, y.cy_px) && sameBits(x.rate_hz, y.rate_hz) &&
+                   sameBits(x.min_range_m, y.min_range_m) && sameBits(x.max_range_m, y.max_range_m) &&
+                   x.noise == y.noise && x.seed == y.seed;
+  }
+  check(same_cameras, "cameras");
   if (differ.empty()) return ::testing::AssertionSuccess();
   std::string list;
   for (const std::string& field : differ) list += " " + field;
@@ -473,6 +484,23 @@ SceneOptions randomOptions(std::mt19937_64& random) {
   o.threads = i();
   o.frame_rate_hz = d();
   o.texture = anyString(random);
+  for (int k = count(); k > 0; --k) {
+    CameraOptions camera;
+    camera.name = anyString(random);
+    camera.frame = anyString(random);
+    camera.width = i();
+    camera.height = i();
+    camera.fx_px = d();
+    camera.fy_px = d();
+    camera.cx_px = d();
+    camera.cy_px = d();
+    camera.rate_hz = d();
+    camera.min_range_m = d();
+    camera.max_range_m = d();
+    camera.noise = b() ? DepthNoise::kKinect : DepthNoise::kNone;
+    camera.seed = static_cast<std::uint32_t>(random() % (static_cast<std::uint64_t>(INT32_MAX) + 1));  // the int range
+    o.cameras.push_back(camera);
+  }
   return o;
 }
 

@@ -1159,6 +1159,22 @@ TEST(BadParams, NanInfAndAbsurdSizesAreNamed) {
   expectRefusedWithParameters("bad_wind", {{"wind", wind}}, {"wind", "magnitude"});
 }
 
+TEST(BadParams, BadCameraParametersAreNamed) {
+  // Issue 16: a zero focal length, a 0 x 0 image, an image over 4096 pixels a side, names given twice.
+  XmlRpc::XmlRpcValue cameras;
+  cameras[0]["name"] = std::string("front");
+  cameras[0]["frame"] = std::string("front_optical");
+  cameras[0]["fx"] = 0.0;
+  cameras[0]["width"] = 0;
+  cameras[0]["height"] = 0;
+  cameras[1]["name"] = std::string("front");
+  cameras[1]["frame"] = std::string("front_optical");
+  cameras[1]["width"] = 5000;
+  expectRefusedWithParameters("bad_cameras", {{"cameras", cameras}},
+                              {"cameras[0].fx = 0: must be in (0, 1e+06]", "cameras[0].width = 0: must be in [1, 4096]",
+                               "cameras[0].height = 0", "cameras[1].width = 5000", "cameras[1].name = 'front'"});
+}
+
 TEST(BadParams, GoodParametersRun) {
   // Control for the three above: with valid parameters the same command is still running at the timeout.
   const ProcessResult result =

@@ -2,6 +2,7 @@
 // handed to Simulation. Field names match the scene-file keys and the node's private parameters.
 #pragma once
 
+#include "cloth_sim/core/camera.h"
 #include "cloth_sim/core/contact.h"
 #include "cloth_sim/core/forces.h"
 #include "cloth_sim/core/integrators.h"
@@ -110,6 +111,9 @@ struct SceneOptions {
 
   /// Texture image (PNG/JPEG path) sampled per vertex; empty: the built-in checker pattern.
   std::string texture;
+
+  /// Simulated depth cameras looking at the scene (the node renders them; the physics ignores them).
+  std::vector<CameraOptions> cameras;
 
   double frameDuration_s() const { return 1.0 / frame_rate_hz; }
   bool autoSubsteps() const { return substeps == kAutoSubsteps; }

@@ -1,0 +1,122 @@
+// The `cameras` scene key: read by the one scene parser, validated by validateSceneOptions with messages
+// that name the camera's field, its value and the range.
+#include "cloth_sim/core/options.h"
+#include "cloth_sim/io/scene_file.h"
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+namespace cloth_sim::core {
+namespace {
+
+SceneOptions withCamera(const CameraOptions& camera) {
+  SceneOptions options;
+  options.cameras.push_back(camera);
+  return options;
+}
+
+CameraOptions namedCamera() {
+  CameraOptions camera;
+  camera.name = "front";
+  camera.frame = "front_optical";
+  return camera;
+}
+
+/// The problem naming `field`, or "" with a test failure if there is none.
+std::string problemAbout(const SceneOptions& options, const std::string& field) {
+  for (const std::string& problem : validateSceneOptions(options)) {
+    if (problem.compare(0, field.size(), field) == 0) return problem;
+  }
+  ADD_FAILURE() << "no problem names " << field;
+  return "";
+}
+
+TEST(CameraOptions, ADefaultCameraWithANameAndAFrameIsValid) {
+  EXPECT_TRUE(validateSceneOptions(withCamera(namedCamera())).empty());
+}
+
+TEST(CameraOptions, BadIntrinsicsAreRefusedByName) {
+  CameraOptions camera = namedCamera();
+  camera.fx_px = 0.0;
+  camera.fy_px = -525.0;
+  SceneOptions options = withCamera(camera);
+  EXPECT_EQ(problemAbout(options, "cameras[0].fx"), "cameras[0].fx = 0: must be in (0, 1e+06]");
+  EXPECT_EQ(problemAbout(options, "cameras[0].fy"), "cameras[0].fy = -525: must be in (0, 1e+06]");
+
+  camera = namedCamera();
+  camera.width = 0;
+  camera.height = 0;
+  options = withCamera(camera);
+  EXPECT_EQ(problemAbout(options, "cameras[0].width"), "cameras[0].width = 0: must be in [1, 4096]");
+  EXPECT_EQ(problemAbout(options, "cameras[0].height"), "cameras[0].height = 0: must be in [1, 4096]");
+
+  camera = namedCamera();
+  camera.width = 8192;  // over the stated limit of 4096 x 4096
+  EXPECT_EQ(problemAbout(withCamera(camera), "cameras[0].width"), "cameras[0].width = 8192: must be in [1, 4096]");
+}
+
+TEST(CameraOptions, BadRatesAndRangesAreRefusedByName) {
+  CameraOptions camera = namedCamera();
+  camera.rate_hz = 0.0;
+  EXPECT_EQ(problemAbout(withCamera(camera), "cameras[0].rate"), "cameras[0].rate = 0: must be in (0, 1000]");
+  camera.rate_hz = 5000.0;
+  EXPECT_EQ(problemAbout(withCamera(camera), "cameras[0].rate"), "cameras[0].rate = 5000: must be in (0, 1000]");
+  camera = namedCamera();
+  camera.min_range_m = 3.0;
+  camera.max_range_m = 2.0;
+  EXPECT_EQ(problemAbout(withCamera(camera), "cameras[0].min_range"),
+            "cameras[0].min_range = 3 m: must be below max_range = 2 m");
+}
+
+TEST(CameraOptions, NamesMustBeTopicNamesAndUnique) {
+  CameraOptions camera = namedCamera();
+  SceneOptions options;
+  options.cameras = {camera, camera};
+  EXPECT_EQ(problemAbout(options, "cameras[1].name"), "cameras[1].name = 'front': another camera has this name");
+  camera.name = "front camera";
+  EXPECT_NE(problemAbout(withCamera(camera), "cameras[0].name").find("must be a letter"), std::string::npos);
+  camera = namedCamera();
+  camera.frame = "";
+  EXPECT_NE(problemAbout(withCamera(camera), "cameras[0].frame").find("non-empty tf frame"), std::string::npos);
+}
+
+bool readScene(const std::string& text, SceneOptions* options, std::vector<std::string>* errors) {
+  return applySceneYaml(YAML::Load(text), "test", options, errors);
+}
+
+// One scene entry points a camera: unspecified fields take the defaults, cx and cy the image's centre.
+TEST(CameraOptions, OneSceneEntryDeclaresACamera) {
+  SceneOptions options;
+  std::vector<std::string> errors;
+  ASSERT_TRUE(readScene("cameras: [{name: side, frame: side_optical, width: 320, height: 240, noise: kinect, seed: 3}]",
+                        &options, &errors))
+      << errors.front();
+  ASSERT_EQ(options.cameras.size(), 1u);
+  const CameraOptions& camera = options.cameras[0];
+  EXPECT_EQ(camera.name, "side");
+  EXPECT_EQ(camera.frame, "side_optical");
+  EXPECT_EQ(camera.cx_px, 159.5);
+  EXPECT_EQ(camera.cy_px, 119.5);
+  EXPECT_EQ(camera.fx_px, 525.0);
+  EXPECT_EQ(camera.noise, DepthNoise::kKinect);
+  EXPECT_EQ(camera.seed, 3u);
+  EXPECT_TRUE(validateSceneOptions(options).empty());
+}
+
+TEST(CameraOptions, UnknownNoiseAndKeysAreRefusedByName) {
+  SceneOptions options;
+  std::vector<std::string> errors;
+  EXPECT_FALSE(readScene("cameras: [{name: a, frame: f, noise: laser}]", &options, &errors));
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_NE(errors[0].find("cameras"), std::string::npos) << errors[0];
+  EXPECT_NE(errors[0].find("none or kinect"), std::string::npos) << errors[0];
+  errors.clear();
+  EXPECT_FALSE(readScene("cameras: [{name: a, frame: f, focal: 500}]", &options, &errors));
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_NE(errors[0].find("'focal'"), std::string::npos) << errors[0];
+}
+
+}  // namespace
+}  // namespace cloth_sim::core
