@@ -10,7 +10,7 @@
 #include "cloth_sim/core/simulation.h"
 #include "cloth_sim/io/scene_file.h"
 #include "cloth_sim/io/texture.h"
-#include "number_parsing.h"
+#include "bench_common.h"
 
 #include <algorithm>
 #include <chrono>
