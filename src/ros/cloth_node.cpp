@@ -7,7 +7,6 @@
 
 #include <boost/make_shared.hpp>
 #include <ros/package.h>
-#include <tf2_geometry_msgs/tf2_geometry_msgs.h>
 
 #include <algorithm>
 #include <cmath>
@@ -319,15 +318,11 @@ void ClothNode::onWind(const geometry_msgs::Vector3Stamped::ConstPtr& message) {
                       raw.x(), raw.y(), raw.z(), core::OptionLimits::kMaxWindSpeed_m_per_s);
     return;
   }
-  if (!wind.header.frame_id.empty() && wind.header.frame_id != frame_id_) {
-    try {
-      const auto transform = tf_buffer_.lookupTransform(frame_id_, wind.header.frame_id, ros::Time(0));
-      tf2::doTransform(*message, wind, transform);  // a free vector: rotation only
-    } catch (const tf2::TransformException& e) {
-      ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~wind in frame '%s': %s",
-                        message->header.frame_id.c_str(), e.what());
-      return;
-    }
+  std::string why;
+  if (!frame_inputs_.express(*message, frame_id_, &wind, &why)) {  // a free vector: rotation only
+    ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~wind in frame '%s': %s",
+                      message->header.frame_id.c_str(), why.c_str());
+    return;
   }
   simulation_->setWindVelocity(Eigen::Vector3d(wind.vector.x, wind.vector.y, wind.vector.z));
 }
@@ -352,18 +347,14 @@ void ClothNode::onGrasp(const cloth_sim::Grasp::ConstPtr& message) {
     ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp id %u: target is not finite", message->id);
     return;
   }
-  if (!target.header.frame_id.empty() && target.header.frame_id != frame_id_) {
-    try {
-      const auto transform = tf_buffer_.lookupTransform(frame_id_, target.header.frame_id, ros::Time(0));
-      geometry_msgs::PointStamped in_frame;
-      tf2::doTransform(target, in_frame, transform);
-      target = in_frame;
-    } catch (const tf2::TransformException& e) {
-      ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp id %u in frame '%s': %s", message->id,
-                        message->header.frame_id.c_str(), e.what());
-      return;
-    }
+  geometry_msgs::PointStamped in_frame;
+  std::string why;
+  if (!frame_inputs_.express(target, frame_id_, &in_frame, &why)) {
+    ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp id %u in frame '%s': %s", message->id,
+                      message->header.frame_id.c_str(), why.c_str());
+    return;
   }
+  target = in_frame;
   std::string error;
   const core::GraspRequest request =
       toGraspRequest(*message, Eigen::Vector3d(target.point.x, target.point.y, target.point.z));

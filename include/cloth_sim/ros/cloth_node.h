@@ -12,6 +12,7 @@
 #include "cloth_sim/Step.h"
 #include "cloth_sim/core/simulation.h"
 #include "cloth_sim/ros/frame_budget.h"
+#include "cloth_sim/ros/frame_inputs.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
@@ -160,6 +161,7 @@ class ClothNode {
   tf2_ros::StaticTransformBroadcaster static_broadcaster_;
   tf2_ros::Buffer tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  FrameInputs frame_inputs_{tf_buffer_};  ///< stamped inputs into frame_id_ (tf-or-drop)
   std::unique_ptr<dynamic_reconfigure::Server<cloth_sim::ClothConfig>> reconfigure_;
   boost::recursive_mutex reconfigure_mutex_;
   /// The wind the reconfigure sliders last showed: a reconfigure changes the wind only if they moved.
