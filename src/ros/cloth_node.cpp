@@ -91,6 +91,9 @@ bool ClothNode::start(std::string* error) {
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_);
   wind_sub_ = pnh_.subscribe(Names::kWindTopic, 10, &ClothNode::onWind, this);
   grasp_sub_ = pnh_.subscribe(Names::kGraspTopic, 10, &ClothNode::onGrasp, this);
+  mouse_ = std::make_unique<MouseDrag>(pnh_.resolveName(Names::kMouseNamespace), [this](const cloth_sim::Grasp& grasp) {
+    onGrasp(boost::make_shared<const cloth_sim::Grasp>(grasp));
+  });
   reset_srv_ = pnh_.advertiseService(Names::kResetService, &ClothNode::onReset, this);
   pause_srv_ = pnh_.advertiseService(Names::kPauseService, &ClothNode::onPause, this);
   // ~step waits for its frames on a thread of its own, so the spin thread stays free to run them in chunks
@@ -308,6 +311,7 @@ void ClothNode::publish(const ros::Time& stamp) {
   }
   const auto transforms = toSphereTransforms(*simulation_, frame_id_, stamp);
   if (!transforms.empty()) tf_broadcaster_.sendTransform(transforms);
+  if (mouse_) mouse_->update(*simulation_, frame_id_, stamp);
 }
 
 void ClothNode::onWind(const geometry_msgs::Vector3Stamped::ConstPtr& message) {
