@@ -1,7 +1,5 @@
 #include "cloth_sim/core/contact.h"
 
-#include "cloth_sim/core/constants.h"
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -243,12 +241,13 @@ void resolveBox(const BoxCollider& box, const ContactOptions& options, const Eig
 
 }  // namespace
 
-Eigen::Vector3d SphereCollider::centerAt(double time_s) const {
-  return center_m + velocity_m_per_s * time_s + oscillation_amplitude_m * periodicSine(time_s, oscillation_period_s);
-}
-
-Eigen::Vector3d SphereCollider::velocityAt(double time_s) const {
-  return velocity_m_per_s + oscillation_amplitude_m * periodicSineRate(time_s, oscillation_period_s);
+ScriptedMotion SphereCollider::motion() const {
+  ScriptedMotion motion;
+  motion.origin_m = center_m;
+  motion.velocity_m_per_s = velocity_m_per_s;
+  motion.swing_amplitude_m = oscillation_amplitude_m;
+  motion.swing_period_s = oscillation_period_s;
+  return motion;
 }
 
 ContactStats& ContactStats::operator+=(const ContactStats& other) {

@@ -1,7 +1,5 @@
 #include "cloth_sim/core/force_model.h"
 
-#include "cloth_sim/core/constants.h"
-
 #include "parallel.h"
 
 #include <algorithm>
@@ -85,44 +83,13 @@ double* ClothForceModel::threadRowScratch() {
 }
 
 void ClothForceModel::refreshConstraints() {
+  kinematics_.setScene(options_, inputs_);
   inverse_mass_per_kg_ = mass_kg_.cwiseInverse();
-  for (int pin : inputs_.pins) {
-    if (!inputs_.isGrasped(pin)) inverse_mass_per_kg_[pin] = 0.0;
-  }
-}
-
-Eigen::Vector3d ClothForceModel::pinOffset(double time_s) const {
-  return options_.pin_motion_amplitude_m * periodicSine(time_s, options_.pin_motion_period_s);
-}
-
-ClothForceModel::PinTravel ClothForceModel::pinTravel(double time_s) const {
-  const double duration_s = options_.pin_travel_time_s;
-  if (duration_s <= 0.0 || time_s >= duration_s) return {};
-  // Smoothstep s(u) = 3u^2 - 2u^3: the pins leave and arrive at rest.
-  const double u = std::max(0.0, time_s / duration_s);
-  return {1.0 - u * u * (3.0 - 2.0 * u), -6.0 * u * (1.0 - u) / duration_s};
+  kinematics_.maskConstrained(inverse_mass_per_kg_);
 }
 
 void ClothForceModel::constrainedPositions(double time_s, Eigen::Matrix3Xd& positions_m) const {
-  const Eigen::Vector3d offset_m = pinOffset(time_s);
-  const PinTravel travel = pinTravel(time_s);
-  for (std::size_t p = 0; p < inputs_.pins.size(); ++p) {
-    const int i = inputs_.pins[p];
-    if (inverse_mass_per_kg_[i] != 0.0) continue;
-    positions_m.col(i) = inputs_.pin_anchors_m.col(p) + offset_m + travel.remaining * inputs_.pin_travel_m.col(p);
-  }
-}
-
-void ClothForceModel::enforceConstraints(double time_s, ClothState& state) const {
-  constrainedPositions(time_s, state.positions_m);
-  const Eigen::Vector3d motion_m_per_s =
-      options_.pin_motion_amplitude_m * periodicSineRate(time_s, options_.pin_motion_period_s);
-  const PinTravel travel = pinTravel(time_s);
-  for (std::size_t p = 0; p < inputs_.pins.size(); ++p) {
-    const int i = inputs_.pins[p];
-    if (inverse_mass_per_kg_[i] != 0.0) continue;
-    state.velocities_m_per_s.col(i) = motion_m_per_s + travel.rate_per_s * inputs_.pin_travel_m.col(p);
-  }
+  kinematics_.prescribedPositions(time_s, positions_m);
 }
 
 std::size_t ClothForceModel::springCount() const {

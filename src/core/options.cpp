@@ -1,6 +1,6 @@
 #include "cloth_sim/core/options.h"
 
-#include "cloth_sim/core/constants.h"
+#include "cloth_sim/core/kinematics.h"
 
 #include <algorithm>
 #include <cctype>
@@ -14,8 +14,6 @@ namespace {
 
 /// How far from unit length an axis or normal may be, and how far from orthogonal two axes may be.
 constexpr double kUnitTolerance = 1e-6;
-/// Peak rate of the smoothstep 3u^2 - 2u^3 that carries pins to their hooks, per unit of u.
-constexpr double kSmoothstepPeakRate = 1.5;
 /// Most characters of a pin selector quoted in an error (it may come from any file given to ~load_scene).
 constexpr std::size_t kMaxQuotedSelectorChars = 32;
 
@@ -69,13 +67,8 @@ std::string indexed(const std::string& list, std::size_t index, const std::strin
   return list + "[" + std::to_string(index) + "]." + field;
 }
 
-/// Peak speed of A sin(2 pi t / T), m/s; 0 for a zero amplitude whatever the period.
-double swingSpeed_m_per_s(const Eigen::Vector3d& amplitude_m, double period_s) {
-  const double amplitude = amplitude_m.norm();
-  return amplitude == 0.0 ? 0.0 : amplitude * kTwoPi / period_s;
-}
-
-/// Peak speed of the pins' travel to pin_positions, m/s: the longest trip at the smoothstep's peak rate.
+/// Peak speed of the pins' travel to pin_positions, m/s: the longest trip at the smoothstep's peak rate
+/// (ScriptedMotion::peakSpeed_m_per_s, before the pins' hooks exist).
 double pinTravelSpeed_m_per_s(const SceneOptions& o, const std::vector<int>& pinned) {
   if (o.pin_travel_time_s <= 0.0 || o.pin_positions_m.size() != pinned.size()) return 0.0;
   const double du_m = o.width_m / (o.cols - 1);
@@ -191,13 +184,15 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   problems.positive("pin_motion_period", o.pin_motion_period_s, L::kMaxPeriod_s);
   if (std::isfinite(o.pin_motion_period_s) && o.pin_motion_period_s > 0.0 && o.pin_motion_amplitude_m.allFinite()) {
     problems.speedAtMost("pin_motion_amplitude and pin_motion_period (|A| 2 pi / T)",
-                         swingSpeed_m_per_s(o.pin_motion_amplitude_m, o.pin_motion_period_s), L::kMaxPinSpeed_m_per_s);
+                         swingPeakSpeed_m_per_s(o.pin_motion_amplitude_m, o.pin_motion_period_s), L::kMaxPinSpeed_m_per_s);
   }
   const bool grid_valid = o.rows >= L::kMinGridSide && o.cols >= L::kMinGridSide && std::isfinite(o.width_m) &&
                           std::isfinite(o.height_m) && o.origin_m.allFinite() && o.u_axis.allFinite() &&
                           o.v_axis.allFinite();
   if (grid_valid && pin_error.empty() && std::isfinite(o.pin_travel_time_s) && o.pin_travel_time_s > 0.0) {
-    problems.speedAtMost("pin_positions and pin_travel_time (1.5 x longest trip / time)",
+    std::ostringstream fields;
+    fields << "pin_positions and pin_travel_time (" << kSmoothstepPeakRate << " x longest trip / time)";
+    problems.speedAtMost(fields.str(),
                          pinTravelSpeed_m_per_s(o, pinned), L::kMaxPinSpeed_m_per_s);
   }
 
@@ -216,7 +211,7 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
     if (std::isfinite(s.oscillation_period_s) && s.oscillation_period_s > 0.0 && s.oscillation_amplitude_m.allFinite() &&
         s.velocity_m_per_s.allFinite()) {
       problems.speedAtMost(indexed("spheres", i, "velocity, amplitude and period (|v| + |A| 2 pi / T)"),
-                           s.velocity_m_per_s.norm() + swingSpeed_m_per_s(s.oscillation_amplitude_m, s.oscillation_period_s),
+                           s.velocity_m_per_s.norm() + swingPeakSpeed_m_per_s(s.oscillation_amplitude_m, s.oscillation_period_s),
                            L::kMaxColliderSpeed_m_per_s);
     }
   }

@@ -1,6 +1,5 @@
 #include "cloth_sim/core/simulation.h"
 
-#include "cloth_sim/core/constants.h"
 
 #include <algorithm>
 #include <cmath>
@@ -14,14 +13,6 @@ namespace {
 
 /// Squares of the built-in checker per side of the cloth.
 constexpr int kCheckerSquares = 8;
-/// Peak speed of a pin carried over pin_travel_time, relative to the mean (the smooth start and stop of
-/// the carrying motion peak at pi / 2; 2 leaves room).
-constexpr double kPinTravelPeakSpeedFactor = 2.0;
-/// Energy a frame may gain from rounding alone: the kinetic energy of the whole cloth at this speed (m/s),
-/// plus this fraction of the energy's magnitude (gravity's potential is measured from z = 0). Without it
-/// a cloth at rest with gravity off has no allowance at all and 1e-27 J of rounding is "gained".
-constexpr double kNegligibleSpeed_m_per_s = 1e-3;
-constexpr double kRoundingEnergyFraction = 1e-9;
 
 bool sameGrid(const SceneOptions& a, const SceneOptions& b) {
   return a.rows == b.rows && a.cols == b.cols && a.width_m == b.width_m && a.height_m == b.height_m &&
@@ -115,98 +106,16 @@ int Simulation::firstSubsteps(double stable_step_s, std::string* warning) const 
 }
 
 FrameEnvelope Simulation::frameEnvelope() const {
-  FrameEnvelope envelope;
   // The last accepted frame's end is this frame's start: its energies and strain are reused unless
   // something outside advanceFrame changed the state or the options since (one pass over the springs
   // saved each way).
   const EnergyReport energies_now = energy_cache_valid_ ? cached_energies_ : energies();
-  envelope.energy_before_J = totalEnergy_J(energies_now);
-  envelope.strain_before = energy_cache_valid_ ? cached_strain_ : maxStructuralStrain();
-  const double total_mass_kg = mass_kg_.sum();
-  const double gravity_m_per_s2 = options_.gravity_m_per_s2.norm();
-  // The fastest thing that can push the cloth: wind (with gusts), spheres, pins, pins travelling.
-  const double gust = 1.0 + std::abs(options_.wind.gust_amplitude);
-  const double wind_speed_m_per_s = options_.wind_enabled ? inputs_.wind_m_per_s.norm() * gust : 0.0;
-  double sphere_speed_m_per_s = 0.0;
-  for (const SphereCollider& sphere : options_.colliders.spheres) {
-    sphere_speed_m_per_s = std::max(sphere_speed_m_per_s, sphere.velocity_m_per_s.norm() +
-                                                              kTwoPi * sphere.oscillation_amplitude_m.norm() /
-                                                                  sphere.oscillation_period_s);
-  }
-  double pin_speed_m_per_s = kTwoPi * options_.pin_motion_amplitude_m.norm() / options_.pin_motion_period_s;
-  if (options_.pin_travel_time_s > 0.0 && inputs_.pin_travel_m.cols() > 0 &&
-      state_.time_s < options_.pin_travel_time_s) {
-    pin_speed_m_per_s += kPinTravelPeakSpeedFactor * inputs_.pin_travel_m.colwise().norm().maxCoeff() /
-                         options_.pin_travel_time_s;
-  }
-  const double kinematic_speed_m_per_s = std::max(sphere_speed_m_per_s, pin_speed_m_per_s);
-  const double input_speed_m_per_s = std::max(wind_speed_m_per_s, kinematic_speed_m_per_s);
-  const double extent_m = std::hypot(options_.width_m, options_.height_m) + 2.0 * options_.pin_motion_amplitude_m.norm();
-  // The energy scale a frame is measured against: the weight over the scene's extent, the kinetic energy of
-  // its fastest input, and the motion and stretch the cloth already has.
-  double grasp_energy_J = 0.0;  // what the hands hold: their springs' energy and their forces over the extent
-  for (const Grasp& grasp : inputs_.grasps) {
-    grasp_energy_J += 0.5 * grasp.stiffness_N_per_m * (grasp.target_m - state_.positions_m.col(grasp.particle)).squaredNorm() +
-                      grasp.extra_force_N.norm() * extent_m;
-  }
-  const double scene_energy_J =
-      total_mass_kg * (gravity_m_per_s2 * extent_m + 0.5 * input_speed_m_per_s * input_speed_m_per_s) +
-      energies_now.kinetic_J + energies_now.elastic_J + grasp_energy_J;
-  // The wind's work in a frame: at most its largest force times the fastest the cloth and air move.
-  const double cloth_speed_m_per_s = state_.velocities_m_per_s.colwise().norm().maxCoeff();
-  const double triangles = static_cast<double>(grid_.triangles.size() / 3);
-  double wind_force_N = 0.0;
-  if (options_.wind_enabled) {
-    const double relative_speed_m_per_s = wind_speed_m_per_s + cloth_speed_m_per_s;
-    const double cell_area_m2 = options_.width_m / (options_.cols - 1) * options_.height_m / (options_.rows - 1);
-    wind_force_N = triangles * (options_.wind.model == WindModel::kPaper
-                                    ? options_.wind.paper_coefficient_N_s_per_m * wind_speed_m_per_s
-                                    : 0.5 * options_.wind.air_density_kg_per_m3 * options_.wind.drag_coefficient *
-                                          0.5 * cell_area_m2 * relative_speed_m_per_s * relative_speed_m_per_s);
-  }
-  // Pins and spheres move particles by hand, against the springs: in a frame a moved particle can be
-  // pushed by d = speed x frame against the load its springs already carry (at most their stiffness times
-  // the strain times the longest rest length) plus the stretch of d itself, and a sphere can throw a
-  // particle at twice its speed.
-  const double frame_s = options_.frameDuration_s();
-  const double particle_stiffness_N_per_m = bound_.omega_max_rad_per_s * bound_.omega_max_rad_per_s * mass_kg_.maxCoeff();
-  const std::vector<double>& all_rest_m = grid_.springsOf(SpringKind::kStructural).rest_length_m;
-  const double longest_m = all_rest_m.empty() ? 0.0 : *std::max_element(all_rest_m.begin(), all_rest_m.end());
-  const auto kinematicWork_J = [&](double speed_m_per_s, double particles) {
-    const double travel_m = speed_m_per_s * frame_s;
-    return particles * particle_stiffness_N_per_m * travel_m * (envelope.strain_before * longest_m + travel_m);
-  };
-  double kinematic_work_J = kinematicWork_J(pin_speed_m_per_s, static_cast<double>(inputs_.pins.size()));
-  for (const SphereCollider& sphere : options_.colliders.spheres) {
-    const double speed_m_per_s = sphere.velocity_m_per_s.norm() +
-                                 kTwoPi * sphere.oscillation_amplitude_m.norm() / sphere.oscillation_period_s;
-    const double reach_m = sphere.radius_m + speed_m_per_s * frame_s + options_.contact.depth_m + cloth_speed_m_per_s * frame_s;
-    const Eigen::Vector3d center_m = sphere.centerAt(state_.time_s);
-    const double near = static_cast<double>(
-        ((state_.positions_m.colwise() - center_m).colwise().norm().array() <= reach_m).count());
-    kinematic_work_J += kinematicWork_J(speed_m_per_s, near) +
-                        near * 0.5 * mass_kg_.maxCoeff() * 4.0 * speed_m_per_s * speed_m_per_s;
-  }
-  envelope.energy_allowance_J = StabilityGuard::kEnergySlackFraction * scene_energy_J + kinematic_work_J +
-                                frame_s * wind_force_N * (wind_speed_m_per_s + cloth_speed_m_per_s) +
-                                0.5 * total_mass_kg * kNegligibleSpeed_m_per_s * kNegligibleSpeed_m_per_s +
-                                kRoundingEnergyFraction * std::abs(envelope.energy_before_J);
-  // The largest force one structural spring can be made to carry: the whole weight, every hand, the wind.
-  double largest_force_N = total_mass_kg * gravity_m_per_s2 + wind_force_N;
-  for (const Grasp& grasp : inputs_.grasps) {
-    largest_force_N += grasp.stiffness_N_per_m * (grasp.target_m - state_.positions_m.col(grasp.particle)).norm() +
-                       grasp.extra_force_N.norm();
-  }
-  const SpringOptions& structural = options_.springs[static_cast<int>(SpringKind::kStructural)];
-  const std::vector<double>& rest_m = grid_.springsOf(SpringKind::kStructural).rest_length_m;
-  const double shortest_m = rest_m.empty() ? 0.0 : *std::min_element(rest_m.begin(), rest_m.end());
-  const double spring_capacity_N_per_strain = structural.enabled ? structural.stiffness_N_per_m * shortest_m : 0.0;
-  // Pins and colliders move particles by hand: in a frame they can stretch a spring by their travel.
-  const double kinematic_strain = shortest_m > 0.0 ? kinematic_speed_m_per_s * frame_s / shortest_m : 0.0;
-  envelope.strain_allowance = spring_capacity_N_per_strain > 0.0
-                                  ? largest_force_N / spring_capacity_N_per_strain + kinematic_strain
-                                  : std::numeric_limits<double>::infinity();
-  return envelope;
+  EnvelopeInputs scene{options_, grid_, mass_kg_, inputs_, state_, bound_, force_model_.kinematics()};
+  scene.energy_before_J = totalEnergy_J(energies_now);
+  scene.kinetic_J = energies_now.kinetic_J;
+  scene.elastic_J = energies_now.elastic_J;
+  scene.strain_before = energy_cache_valid_ ? cached_strain_ : maxStructuralStrain();
+  return core::frameEnvelope(scene);
 }
 
 bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps, FrameReport* report) {
@@ -342,6 +251,7 @@ bool Simulation::retune(const SceneOptions& options, std::string* error) {
     integrator_ = makeIntegrator(options.integrator, options.solver);
   }
   options_ = options;
+  force_model_.refreshConstraints();  // the pins' swing and the spheres may have changed
   bound_stale_ = true;
   energy_cache_valid_ = false;
   memory_ = GuardMemory();
@@ -417,7 +327,8 @@ bool Simulation::release(std::uint32_t id) {
   if (!inputs_.isGrasped(particle) && pin != inputs_.pins.end() && *pin == particle) {
     // Hang it on a hook where the hand let go: the pin's motion continues from there.
     const auto p = pin - inputs_.pins.begin();
-    inputs_.pin_anchors_m.col(p) = state_.positions_m.col(particle) - force_model_.pinOffset(state_.time_s);
+    inputs_.pin_anchors_m.col(p) =
+        state_.positions_m.col(particle) - Kinematics::hookMotion(options_, inputs_, p).swingAt(state_.time_s);
     inputs_.pin_travel_m.col(p).setZero();
     force_model_.refreshConstraints();
     force_model_.enforceConstraints(state_.time_s, state_);

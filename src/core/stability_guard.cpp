@@ -21,6 +21,11 @@ constexpr int kModeSamples = 64;
 constexpr double kBisectionRelativeWidth = 1e-6;
 /// Steps below this fraction of 1/omega count as "no stable step" (forward Euler without damping).
 constexpr double kSmallestStepFraction = 1e-9;
+/// Energy a frame may gain from rounding alone: the kinetic energy of the whole cloth at this speed (m/s),
+/// plus this fraction of the energy's magnitude (gravity's potential is measured from z = 0). Without it
+/// a cloth at rest with gravity off has no allowance at all and 1e-27 J of rounding is "gained".
+constexpr double kNegligibleSpeed_m_per_s = 1e-3;
+constexpr double kRoundingEnergyFraction = 1e-9;
 
 using Complex = std::complex<double>;
 
@@ -167,6 +172,99 @@ std::string StabilityGuard::check(const ClothState& state, double energy_after_J
             << " in a frame, beyond what the scene's forces can stretch it";
   }
   return problem.str();
+}
+
+FrameEnvelope frameEnvelope(const EnvelopeInputs& scene) {
+  const SceneOptions& options = scene.options;
+  const ClothGrid& grid = scene.grid;
+  const Eigen::VectorXd& mass_kg = scene.mass_kg;
+  const ClothState& state = scene.state;
+  const Kinematics& kinematics = scene.kinematics;
+  FrameEnvelope envelope;
+  envelope.energy_before_J = scene.energy_before_J;
+  envelope.strain_before = scene.strain_before;
+  const double total_mass_kg = mass_kg.sum();
+  const double gravity_m_per_s2 = options.gravity_m_per_s2.norm();
+  // The fastest thing that can push the cloth: wind (with gusts), or a body (pins' hooks, spheres).
+  const double gust = 1.0 + std::abs(options.wind.gust_amplitude);
+  const double wind_speed_m_per_s = options.wind_enabled ? scene.inputs.wind_m_per_s.norm() * gust : 0.0;
+  double kinematic_speed_m_per_s = 0.0;
+  for (std::size_t b = 0; b < kinematics.bodies().size(); ++b) {
+    kinematic_speed_m_per_s = std::max(kinematic_speed_m_per_s, kinematics.peakSpeed_m_per_s(b, state.time_s));
+  }
+  const double input_speed_m_per_s = std::max(wind_speed_m_per_s, kinematic_speed_m_per_s);
+  const double extent_m = std::hypot(options.width_m, options.height_m) + 2.0 * options.pin_motion_amplitude_m.norm();
+  // The energy scale a frame is measured against: the weight over the scene's extent, the kinetic energy of
+  // its fastest input, and the motion and stretch the cloth already has.
+  double grasp_energy_J = 0.0;  // what the hands hold: their springs' energy and their forces over the extent
+  for (const Grasp& grasp : scene.inputs.grasps) {
+    grasp_energy_J += 0.5 * grasp.stiffness_N_per_m * (grasp.target_m - state.positions_m.col(grasp.particle)).squaredNorm() +
+                      grasp.extra_force_N.norm() * extent_m;
+  }
+  const double scene_energy_J =
+      total_mass_kg * (gravity_m_per_s2 * extent_m + 0.5 * input_speed_m_per_s * input_speed_m_per_s) +
+      scene.kinetic_J + scene.elastic_J + grasp_energy_J;
+  // The wind's work in a frame: at most its largest force times the fastest the cloth and air move.
+  const double cloth_speed_m_per_s = state.velocities_m_per_s.colwise().norm().maxCoeff();
+  const double triangles = static_cast<double>(grid.triangles.size() / 3);
+  double wind_force_N = 0.0;
+  if (options.wind_enabled) {
+    const double relative_speed_m_per_s = wind_speed_m_per_s + cloth_speed_m_per_s;
+    const double cell_area_m2 = options.width_m / (options.cols - 1) * options.height_m / (options.rows - 1);
+    wind_force_N = triangles * (options.wind.model == WindModel::kPaper
+                                    ? options.wind.paper_coefficient_N_s_per_m * wind_speed_m_per_s
+                                    : 0.5 * options.wind.air_density_kg_per_m3 * options.wind.drag_coefficient *
+                                          0.5 * cell_area_m2 * relative_speed_m_per_s * relative_speed_m_per_s);
+  }
+  // Bodies move particles by hand, against the springs: in a frame a held (or touched) particle can be
+  // pushed by d = speed x frame against the load its springs already carry (at most their stiffness times
+  // the strain times the longest rest length) plus the stretch of d itself, and a sphere can throw a
+  // particle at twice its speed.
+  const double frame_s = options.frameDuration_s();
+  const double particle_stiffness_N_per_m =
+      scene.bound.omega_max_rad_per_s * scene.bound.omega_max_rad_per_s * mass_kg.maxCoeff();
+  const std::vector<double>& all_rest_m = grid.springsOf(SpringKind::kStructural).rest_length_m;
+  const double longest_m = all_rest_m.empty() ? 0.0 : *std::max_element(all_rest_m.begin(), all_rest_m.end());
+  const auto kinematicWork_J = [&](double speed_m_per_s, double particles) {
+    const double travel_m = speed_m_per_s * frame_s;
+    return particles * particle_stiffness_N_per_m * travel_m * (envelope.strain_before * longest_m + travel_m);
+  };
+  double kinematic_work_J = 0.0;
+  for (std::size_t b = 0; b < kinematics.bodies().size(); ++b) {
+    const int held = kinematics.heldParticles(b);
+    if (held > 0) kinematic_work_J += kinematicWork_J(kinematics.peakSpeed_m_per_s(b, state.time_s), held);
+  }
+  for (std::size_t s = 0; s < options.colliders.spheres.size(); ++s) {
+    const std::size_t body = kinematics.sphereBody(s);
+    const double speed_m_per_s = kinematics.peakSpeed_m_per_s(body, state.time_s);
+    const double reach_m = options.colliders.spheres[s].radius_m + speed_m_per_s * frame_s + options.contact.depth_m +
+                           cloth_speed_m_per_s * frame_s;
+    const Eigen::Vector3d center_m = kinematics.bodies()[body].poseAt(state.time_s).position_m;
+    const double near = static_cast<double>(
+        ((state.positions_m.colwise() - center_m).colwise().norm().array() <= reach_m).count());
+    kinematic_work_J += kinematicWork_J(speed_m_per_s, near) +
+                        near * 0.5 * mass_kg.maxCoeff() * 4.0 * speed_m_per_s * speed_m_per_s;
+  }
+  envelope.energy_allowance_J = StabilityGuard::kEnergySlackFraction * scene_energy_J + kinematic_work_J +
+                                frame_s * wind_force_N * (wind_speed_m_per_s + cloth_speed_m_per_s) +
+                                0.5 * total_mass_kg * kNegligibleSpeed_m_per_s * kNegligibleSpeed_m_per_s +
+                                kRoundingEnergyFraction * std::abs(envelope.energy_before_J);
+  // The largest force one structural spring can be made to carry: the whole weight, every hand, the wind.
+  double largest_force_N = total_mass_kg * gravity_m_per_s2 + wind_force_N;
+  for (const Grasp& grasp : scene.inputs.grasps) {
+    largest_force_N += grasp.stiffness_N_per_m * (grasp.target_m - state.positions_m.col(grasp.particle)).norm() +
+                       grasp.extra_force_N.norm();
+  }
+  const SpringOptions& structural = options.springs[static_cast<int>(SpringKind::kStructural)];
+  const std::vector<double>& rest_m = grid.springsOf(SpringKind::kStructural).rest_length_m;
+  const double shortest_m = rest_m.empty() ? 0.0 : *std::min_element(rest_m.begin(), rest_m.end());
+  const double spring_capacity_N_per_strain = structural.enabled ? structural.stiffness_N_per_m * shortest_m : 0.0;
+  // Bodies move particles by hand: in a frame they can stretch a spring by their travel.
+  const double kinematic_strain = shortest_m > 0.0 ? kinematic_speed_m_per_s * frame_s / shortest_m : 0.0;
+  envelope.strain_allowance = spring_capacity_N_per_strain > 0.0
+                                  ? largest_force_N / spring_capacity_N_per_strain + kinematic_strain
+                                  : std::numeric_limits<double>::infinity();
+  return envelope;
 }
 
 }  // namespace cloth_sim::core

@@ -7,7 +7,6 @@
 
 #include <boost/make_shared.hpp>
 #include <ros/package.h>
-#include <tf2_geometry_msgs/tf2_geometry_msgs.h>
 
 #include <algorithm>
 #include <cmath>
@@ -93,6 +92,9 @@ bool ClothNode::start(std::string* error) {
   cameras_ = std::make_unique<DepthCameras>(pnh_, tf_buffer_, frame_id_, simulation_->options().cameras);
   wind_sub_ = pnh_.subscribe(Names::kWindTopic, 10, &ClothNode::onWind, this);
   grasp_sub_ = pnh_.subscribe(Names::kGraspTopic, 10, &ClothNode::onGrasp, this);
+  mouse_ = std::make_unique<MouseDrag>(pnh_.resolveName(Names::kMouseNamespace), [this](const cloth_sim::Grasp& grasp) {
+    onGrasp(boost::make_shared<const cloth_sim::Grasp>(grasp));
+  });
   reset_srv_ = pnh_.advertiseService(Names::kResetService, &ClothNode::onReset, this);
   pause_srv_ = pnh_.advertiseService(Names::kPauseService, &ClothNode::onPause, this);
   // ~step waits for its frames on a thread of its own, so the spin thread stays free to run them in chunks
@@ -312,6 +314,7 @@ void ClothNode::publish(const ros::Time& stamp) {
   const auto transforms = toSphereTransforms(*simulation_, frame_id_, stamp);
   if (!transforms.empty()) tf_broadcaster_.sendTransform(transforms);
   cameras_->publish(*simulation_, stamp);  // ~points and the cameras, each only while subscribed
+  if (mouse_) mouse_->update(*simulation_, frame_id_, stamp);
 }
 
 void ClothNode::onWind(const geometry_msgs::Vector3Stamped::ConstPtr& message) {
@@ -322,15 +325,11 @@ void ClothNode::onWind(const geometry_msgs::Vector3Stamped::ConstPtr& message) {
                       raw.x(), raw.y(), raw.z(), core::OptionLimits::kMaxWindSpeed_m_per_s);
     return;
   }
-  if (!wind.header.frame_id.empty() && wind.header.frame_id != frame_id_) {
-    try {
-      const auto transform = tf_buffer_.lookupTransform(frame_id_, wind.header.frame_id, ros::Time(0));
-      tf2::doTransform(*message, wind, transform);  // a free vector: rotation only
-    } catch (const tf2::TransformException& e) {
-      ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~wind in frame '%s': %s",
-                        message->header.frame_id.c_str(), e.what());
-      return;
-    }
+  std::string why;
+  if (!frame_inputs_.express(*message, frame_id_, &wind, &why)) {  // a free vector: rotation only
+    ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~wind in frame '%s': %s",
+                      message->header.frame_id.c_str(), why.c_str());
+    return;
   }
   simulation_->setWindVelocity(Eigen::Vector3d(wind.vector.x, wind.vector.y, wind.vector.z));
 }
@@ -355,18 +354,14 @@ void ClothNode::onGrasp(const cloth_sim::Grasp::ConstPtr& message) {
     ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp id %u: target is not finite", message->id);
     return;
   }
-  if (!target.header.frame_id.empty() && target.header.frame_id != frame_id_) {
-    try {
-      const auto transform = tf_buffer_.lookupTransform(frame_id_, target.header.frame_id, ros::Time(0));
-      geometry_msgs::PointStamped in_frame;
-      tf2::doTransform(target, in_frame, transform);
-      target = in_frame;
-    } catch (const tf2::TransformException& e) {
-      ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp id %u in frame '%s': %s", message->id,
-                        message->header.frame_id.c_str(), e.what());
-      return;
-    }
+  geometry_msgs::PointStamped in_frame;
+  std::string why;
+  if (!frame_inputs_.express(target, frame_id_, &in_frame, &why)) {
+    ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp id %u in frame '%s': %s", message->id,
+                      message->header.frame_id.c_str(), why.c_str());
+    return;
   }
+  target = in_frame;
   std::string error;
   const core::GraspRequest request =
       toGraspRequest(*message, Eigen::Vector3d(target.point.x, target.point.y, target.point.z));

@@ -17,6 +17,8 @@
 // thin box or a fast sphere within one substep is caught at its entry point and counted.
 #pragma once
 
+#include "cloth_sim/core/kinematics.h"
+
 #include <Eigen/Core>
 
 #include <vector>
@@ -29,7 +31,8 @@ struct PlaneCollider {
   double offset_m = 0.0;  ///< d
 };
 
-/// A sphere whose centre moves as c(t) = c0 + v t + A sin(2 pi t / T): static, linear, or swinging.
+/// A sphere whose centre moves as c(t) = c0 + v t + A sin(2 pi t / T): static, linear, or swinging (the
+/// closed form is ScriptedMotion's, kinematics.h).
 struct SphereCollider {
   Eigen::Vector3d center_m = Eigen::Vector3d::Zero();               ///< c0, world frame
   double radius_m = 0.1;
@@ -37,8 +40,10 @@ struct SphereCollider {
   Eigen::Vector3d oscillation_amplitude_m = Eigen::Vector3d::Zero();  ///< A
   double oscillation_period_s = 1.0;                                 ///< T
 
-  Eigen::Vector3d centerAt(double time_s) const;
-  Eigen::Vector3d velocityAt(double time_s) const;
+  /// The centre's motion (no travel): what centerAt and velocityAt evaluate, and the sphere's body.
+  ScriptedMotion motion() const;
+  Eigen::Vector3d centerAt(double time_s) const { return motion().positionAt(time_s); }
+  Eigen::Vector3d velocityAt(double time_s) const { return motion().velocityAt(time_s); }
 };
 
 /// An axis-aligned box (a table, a step), static, world frame.

@@ -1,6 +1,7 @@
 // The cloth's right-hand side as a standalone object: built from the grid, the scene's physics options,
 // the masses and the inputs (grasps, pin hooks, wind), it gives the forces and their differential that
-// the integrators ask for, and owns the constraints (pins on hooks) that the implicit solver filters.
+// the integrators ask for, and answers for the constraints (pins on hooks) that the implicit solver filters
+// by asking its Kinematics (kinematics.h), rebuilt from the options and inputs by refreshConstraints.
 // The springs run through the stencil kernels (stencil.h) on structure-of-arrays copies of the fields,
 // on options.threads threads from 4096 particles up (src/core/parallel.h); every value is computed by one thread in a fixed
 // order, so the results are bit-identical whatever the thread count.
@@ -9,6 +10,7 @@
 #include "cloth_sim/core/grid.h"
 #include "cloth_sim/core/inputs.h"
 #include "cloth_sim/core/integrators.h"
+#include "cloth_sim/core/kinematics.h"
 #include "cloth_sim/core/options.h"
 #include "cloth_sim/core/stencil.h"
 
@@ -22,24 +24,18 @@ namespace cloth_sim::core {
 class ClothForceModel final : public Dynamics {
  public:
   /// Keeps references: grid, options, masses and inputs must outlive the model. Options and inputs may
-  /// change between calls (live tuning, grasps); call refreshConstraints after pins or grasps change.
+  /// change between calls (live tuning, grasps); call refreshConstraints after the pins, their hooks, the
+  /// grasps or the options (the pins' swing and travel, the spheres) change.
   ClothForceModel(const ClothGrid& grid, const SceneOptions& options, const Eigen::VectorXd& mass_kg,
                   const ClothInputs& inputs);
 
-  /// Recomputes which particles are constrained: a pin is on its hook unless a grasp holds it.
+  /// Rebuilds the bodies from the options and inputs (Kinematics::setScene) and which particles are
+  /// constrained: a pin is on its hook unless a grasp holds it.
   void refreshConstraints();
-  /// Puts every hooked pin where its hook and the pins' motion place it at time_s, with the motion's
-  /// velocity.
-  void enforceConstraints(double time_s, ClothState& state) const;
-  /// Where the pins' motion has taken them at time_s, relative to their hooks, m.
-  Eigen::Vector3d pinOffset(double time_s) const;
-  /// The share of its travel (ClothInputs::pin_travel_m) a pin still has to go at time_s, and its rate
-  /// of change, 1/s.
-  struct PinTravel {
-    double remaining = 0.0;
-    double rate_per_s = 0.0;
-  };
-  PinTravel pinTravel(double time_s) const;
+  /// Puts every hooked pin where its hook's motion places it at time_s, with the motion's velocity.
+  void enforceConstraints(double time_s, ClothState& state) const { kinematics_.enforce(time_s, state); }
+  /// The bodies that move the cloth by prescription (pins' hooks, spheres), as of refreshConstraints.
+  const Kinematics& kinematics() const { return kinematics_; }
 
   void forces(const Eigen::Matrix3Xd& positions_m, const Eigen::Matrix3Xd& velocities_m_per_s, double time_s,
               Eigen::Matrix3Xd& forces_N) override;
@@ -89,7 +85,8 @@ class ClothForceModel final : public Dynamics {
   const SceneOptions& options_;
   const Eigen::VectorXd& mass_kg_;
   const ClothInputs& inputs_;
-  Eigen::VectorXd inverse_mass_per_kg_;  ///< 0 on hooked pins
+  Kinematics kinematics_;                ///< from options_ and inputs_, by refreshConstraints
+  Eigen::VectorXd inverse_mass_per_kg_;  ///< 0 on the particles kinematics_ holds (hooked pins)
   std::array<double, kStencilFamilies.size()> rest_length_m_{};  ///< per family, from the rest grid
 
   // Scratch, reused across calls (sized on first use).

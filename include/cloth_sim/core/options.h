@@ -32,7 +32,8 @@ struct OptionLimits {
   static constexpr double kMaxCoordinate_m = 1000.0;        ///< cloth, colliders and pin motion
   static constexpr double kMaxAcceleration_m_per_s2 = 1000.0;  ///< gravity
   static constexpr double kMaxColliderSpeed_m_per_s = 100.0;  ///< peak: drift plus swing |A| 2 pi / T
-  /// Peak speed of a pin: its motion |A| 2 pi / T, and its travel to pin_positions (1.5 d / travel time).
+  /// Peak speed of a pin: its motion |A| 2 pi / T, and its travel to pin_positions (1.5 d / travel time,
+  /// kSmoothstepPeakRate).
   /// A pin at 6e303 m/s (pin_motion_period 1e-300) made the kinetic energy infinite.
   static constexpr double kMaxPinSpeed_m_per_s = 100.0;
   static constexpr double kMaxPeriod_s = 1e4;               ///< gusts, pin motion, sphere swings

@@ -13,6 +13,7 @@
 #include "cloth_sim/core/grid.h"
 #include "cloth_sim/core/inputs.h"
 #include "cloth_sim/core/integrators.h"
+#include "cloth_sim/core/kinematics.h"
 #include "cloth_sim/core/options.h"
 #include "cloth_sim/core/state.h"
 
@@ -60,6 +61,30 @@ struct FrameEnvelope {
   /// Strain the scene's largest force (weight, grasps, wind) can add to a structural spring: F / (k L).
   double strain_allowance = 0.0;
 };
+
+/// What a frame's budgets are made of: the scene as it stands at the frame's start.
+struct EnvelopeInputs {
+  const SceneOptions& options;
+  const ClothGrid& grid;
+  const Eigen::VectorXd& mass_kg;
+  const ClothInputs& inputs;
+  const ClothState& state;
+  const StiffnessBound& bound;  ///< of the scene as it is now
+  /// The bodies that move the cloth by prescription (pins' hooks, spheres): their peak speeds over the frame.
+  const Kinematics& kinematics;
+  double energy_before_J = 0.0;  ///< total energy at the frame's start (Simulation::totalEnergy_J)
+  double kinetic_J = 0.0;        ///< its kinetic part
+  double elastic_J = 0.0;        ///< its springs' part
+  double strain_before = 0.0;    ///< largest structural strain at the frame's start
+};
+
+/// The energy and strain budgets of the frame about to be computed. The energy allowance: a slack of the
+/// scene's energy scale (weight over its extent, the kinetic energy of its fastest input -- wind or body
+/// --, the motion, stretch and hands it already has), the work the bodies can do moving held or touched
+/// particles against their springs within the frame, the wind's work, and rounding. The strain allowance:
+/// what the scene's largest force can stretch a structural spring, plus what the fastest body can carry a
+/// particle within the frame.
+FrameEnvelope frameEnvelope(const EnvelopeInputs& scene);
 
 /// What `auto` remembers between frames, so that it does not start every frame from the same too-small
 /// guess. Part of a simulation's snapshot (a restored run must choose the same substeps).

@@ -13,6 +13,8 @@
 #include "cloth_sim/core/simulation.h"
 #include "cloth_sim/ros/frame_budget.h"
 #include "cloth_sim/ros/depth_cameras.h"
+#include "cloth_sim/ros/frame_inputs.h"
+#include "cloth_sim/ros/mouse_drag.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
@@ -59,6 +61,8 @@ struct Names {
   static constexpr const char* kParentFrameParam = "parent_frame_id";
   /// dynamic_reconfigure's namespace: ~tuning/set_parameters, ~tuning/parameter_updates.
   static constexpr const char* kTuningNamespace = "tuning";
+  /// The paper's mouse in rviz: an interactive marker server under ~mouse (~mouse/feedback, ~mouse/update).
+  static constexpr const char* kMouseNamespace = "mouse";
 };
 
 class ClothNode {
@@ -162,6 +166,8 @@ class ClothNode {
   tf2_ros::Buffer tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::unique_ptr<DepthCameras> cameras_;  ///< ~points and the scene's cameras; after tf_buffer_, which it reads
+  FrameInputs frame_inputs_{tf_buffer_};  ///< stamped inputs into frame_id_ (tf-or-drop)
+  std::unique_ptr<MouseDrag> mouse_;      ///< rviz drags the cloth through ~grasp's handling
   std::unique_ptr<dynamic_reconfigure::Server<cloth_sim::ClothConfig>> reconfigure_;
   boost::recursive_mutex reconfigure_mutex_;
   /// The wind the reconfigure sliders last showed: a reconfigure changes the wind only if they moved.

@@ -1,0 +1,55 @@
+// The paper's mouse (§5) in rviz: an interactive marker shaped like the cloth. Mouse-down on it grabs the
+// particle nearest to the clicked point, dragging moves the grasp's target by as much as the mouse moved
+// the marker, mouse-up lets go. Each event becomes a cloth_sim/Grasp for the node's ~grasp handling (the
+// one grasp mechanism; the drag uses grasp id kMouseGraspId).
+#pragma once
+
+#include "cloth_sim/Grasp.h"
+#include "cloth_sim/core/simulation.h"
+
+#include <interactive_markers/interactive_marker_server.h>
+#include <ros/ros.h>
+#include <visualization_msgs/InteractiveMarkerFeedback.h>
+
+#include <Eigen/Core>
+
+#include <functional>
+#include <memory>
+#include <string>
+
+namespace cloth_sim {
+
+class MouseDrag {
+ public:
+  /// The grasp id the mouse holds with (a ~grasp user picking the same id moves the mouse's grasp).
+  static constexpr std::uint32_t kMouseGraspId = 0xFFFFFFFFu;
+  /// The interactive marker's name on the server.
+  static constexpr const char* kMarkerName = "cloth";
+  /// The marker's cloth shape is refreshed at most this often while nobody drags, s (the server resends
+  /// the whole mesh each time).
+  static constexpr double kShapeRefreshPeriod_s = 0.5;
+
+  using GraspSink = std::function<void(const cloth_sim::Grasp&)>;
+
+  /// Serves the marker under topic namespace `topic_ns` (its feedback topic is topic_ns + "/feedback");
+  /// `grasp` receives the grab, drag and release messages.
+  MouseDrag(const std::string& topic_ns, GraspSink grasp);
+
+  /// Redraws the marker as the cloth stands (at most every kShapeRefreshPeriod_s, never while dragging).
+  void update(const core::Simulation& simulation, const std::string& frame_id, const ros::Time& now);
+  bool dragging() const { return dragging_; }
+
+ private:
+  void onFeedback(const visualization_msgs::InteractiveMarkerFeedbackConstPtr& feedback);
+  cloth_sim::Grasp graspMessage(const std_msgs::Header& header, std::uint8_t action) const;
+
+  GraspSink grasp_;
+  std::unique_ptr<interactive_markers::InteractiveMarkerServer> server_;
+  bool dragging_ = false;
+  /// Where the mouse went down (in the marker's frame) and where the marker stood then.
+  Eigen::Vector3d grab_point_m_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d marker_at_grab_m_ = Eigen::Vector3d::Zero();
+  ros::Time last_shape_;
+};
+
+}  // namespace cloth_sim

@@ -1,0 +1,25 @@
+#include "cloth_sim/ros/frame_inputs.h"
+
+namespace cloth_sim {
+
+core::Pose toPose(const geometry_msgs::TransformStamped& transform) {
+  const geometry_msgs::Vector3& t = transform.transform.translation;
+  const geometry_msgs::Quaternion& q = transform.transform.rotation;
+  core::Pose pose;
+  pose.position_m = Eigen::Vector3d(t.x, t.y, t.z);
+  pose.orientation = Eigen::Quaterniond(q.w, q.x, q.y, q.z).normalized();
+  return pose;
+}
+
+bool FrameInputs::poseOf(const std::string& child, const std::string& frame, const ros::Time& time, core::Pose* pose,
+                         std::string* why) const {
+  try {
+    *pose = toPose(buffer_.lookupTransform(frame, child, time));
+    return true;
+  } catch (const tf2::TransformException& e) {
+    *why = e.what();
+    return false;
+  }
+}
+
+}  // namespace cloth_sim

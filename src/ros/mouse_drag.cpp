@@ -1,0 +1,83 @@
+#include "cloth_sim/ros/mouse_drag.h"
+
+#include "cloth_sim/ros/conversions.h"
+
+#include <visualization_msgs/InteractiveMarker.h>
+#include <visualization_msgs/InteractiveMarkerControl.h>
+
+namespace cloth_sim {
+
+namespace {
+
+Eigen::Vector3d toEigen(const geometry_msgs::Point& p) { return Eigen::Vector3d(p.x, p.y, p.z); }
+
+}  // namespace
+
+MouseDrag::MouseDrag(const std::string& topic_ns, GraspSink grasp) : grasp_(std::move(grasp)) {
+  // No spin thread of its own: its feedback runs from ros::spin() like every other callback of the node.
+  server_ = std::make_unique<interactive_markers::InteractiveMarkerServer>(topic_ns, "", false);
+}
+
+void MouseDrag::update(const core::Simulation& simulation, const std::string& frame_id, const ros::Time& now) {
+  if (dragging_) return;
+  const double since_s = (now - last_shape_).toSec();
+  if (!last_shape_.isZero() && since_s >= 0.0 && since_s < kShapeRefreshPeriod_s) return;
+  last_shape_ = now;
+  visualization_msgs::InteractiveMarker marker;
+  marker.header.frame_id = frame_id;
+  marker.header.stamp = ros::Time(0);  // follow the latest tf of frame_id
+  marker.name = kMarkerName;
+  marker.description = "drag the cloth";
+  marker.pose.orientation.w = 1.0;  // the mesh's points are in frame_id: the marker sits at its origin
+  marker.scale = 0.2f;
+  visualization_msgs::InteractiveMarkerControl control;
+  control.name = "drag";
+  control.interaction_mode = visualization_msgs::InteractiveMarkerControl::MOVE_3D;
+  control.always_visible = true;
+  visualization_msgs::Marker mesh = toMeshMarker(simulation, frame_id, ros::Time(0));
+  mesh.header = std_msgs::Header();  // inside a control: in the marker's frame
+  mesh.color.a = 0.3f;               // a see-through handle over the ~mesh drawing
+  for (auto& colour : mesh.colors) colour.a = 0.3f;
+  control.markers.push_back(mesh);
+  marker.controls.push_back(control);
+  server_->insert(marker, [this](const visualization_msgs::InteractiveMarkerFeedbackConstPtr& feedback) {
+    onFeedback(feedback);
+  });
+  server_->applyChanges();
+}
+
+cloth_sim::Grasp MouseDrag::graspMessage(const std_msgs::Header& header, std::uint8_t action) const {
+  cloth_sim::Grasp grasp;
+  grasp.header = header;
+  grasp.id = kMouseGraspId;
+  grasp.action = action;
+  grasp.particle = -1;  // the particle nearest to the target when the grab starts: the clicked one
+  return grasp;
+}
+
+void MouseDrag::onFeedback(const visualization_msgs::InteractiveMarkerFeedbackConstPtr& feedback) {
+  using Feedback = visualization_msgs::InteractiveMarkerFeedback;
+  const Eigen::Vector3d marker_m = toEigen(feedback->pose.position);
+  if (feedback->event_type == Feedback::MOUSE_DOWN) {
+    if (!feedback->mouse_point_valid) return;  // clicked beside the cloth: nothing to pick
+    grab_point_m_ = toEigen(feedback->mouse_point);
+    marker_at_grab_m_ = marker_m;
+    dragging_ = true;
+    cloth_sim::Grasp grab = graspMessage(feedback->header, cloth_sim::Grasp::GRAB);
+    grab.target = feedback->mouse_point;
+    grasp_(grab);
+  } else if (feedback->event_type == Feedback::POSE_UPDATE && dragging_) {
+    cloth_sim::Grasp drag = graspMessage(feedback->header, cloth_sim::Grasp::GRAB);
+    const Eigen::Vector3d target_m = grab_point_m_ + (marker_m - marker_at_grab_m_);
+    drag.target.x = target_m.x();
+    drag.target.y = target_m.y();
+    drag.target.z = target_m.z();
+    grasp_(drag);
+  } else if (feedback->event_type == Feedback::MOUSE_UP && dragging_) {
+    dragging_ = false;
+    grasp_(graspMessage(feedback->header, cloth_sim::Grasp::RELEASE));
+    last_shape_ = ros::Time();  // redraw the marker over the cloth at once, back at the origin
+  }
+}
+
+}  // namespace cloth_sim

@@ -1,0 +1,109 @@
+#!/usr/bin/python3
+"""The paper's mouse (§5) in rviz: cloth_node's interactive marker drives the cloth's grasps.
+
+test/ros/mouse_drag.test runs cloth_node on the hanging scene (20 x 20, top corners pinned). This test
+does what rviz does when a user clicks the cloth and drags: it waits for the marker on ~mouse/update_full,
+then sends InteractiveMarkerFeedback on ~mouse/feedback: MOUSE_DOWN at the free bottom-left corner, then
+POSE_UPDATEs moving the marker 0.3 m up and 0.3 m out of the cloth's plane, then MOUSE_UP. The corner must
+follow the mouse there, and fall once let go.
+"""
+import math
+import threading
+import time
+import unittest
+
+import rospy
+import rostest
+from cloth_sim.msg import ClothState
+from geometry_msgs.msg import Point
+from visualization_msgs.msg import InteractiveMarkerFeedback, InteractiveMarkerInit
+
+DEADLINE_S = 20.0
+ROWS, COLS = 20, 20
+CORNER = (ROWS - 1) * COLS  # bottom-left, free
+DRAG = (0.0, 0.3, 0.3)  # m, world frame: how far the mouse moves the marker
+# The mouse's grasp uses the scene's grasp_stiffness, 50 N/m: holding part of the cloth's 4.9 N weight it
+# sits up to 0.1 m short of the target; 0.15 m leaves room for the swing. The corner starts 0.42 m away.
+TOLERANCE_M = 0.15
+CLIENT_ID = "/test_mouse_drag"
+
+
+def distance(a, b):
+    return math.sqrt((a.x - b.x) ** 2 + (a.y - b.y) ** 2 + (a.z - b.z) ** 2)
+
+
+class States:
+    def __init__(self):
+        self.lock = threading.Lock()
+        self.latest = None
+        self.subscriber = rospy.Subscriber("/cloth_node/state", ClothState, self.on_state, queue_size=5)
+
+    def on_state(self, state):
+        with self.lock:
+            self.latest = state
+
+    def wait_for(self, condition, deadline_s=DEADLINE_S, keep_doing=None):
+        deadline = time.monotonic() + deadline_s
+        while time.monotonic() < deadline and not rospy.is_shutdown():
+            if keep_doing is not None:
+                keep_doing()
+            with self.lock:
+                if self.latest is not None and condition(self.latest):
+                    return self.latest
+            time.sleep(0.1)
+        return None
+
+
+class MouseDrag(unittest.TestCase):
+    def setUp(self):
+        self.states = States()
+        self.markers = []
+        self.init_subscriber = rospy.Subscriber("/cloth_node/mouse/update_full", InteractiveMarkerInit,
+                                                self.markers.append, queue_size=2)
+        self.feedback = rospy.Publisher("/cloth_node/mouse/feedback", InteractiveMarkerFeedback, queue_size=10)
+
+    def feedback_message(self, event_type, marker_position=(0.0, 0.0, 0.0), mouse_point=None):
+        message = InteractiveMarkerFeedback()
+        message.header.frame_id = "world"
+        message.client_id = CLIENT_ID
+        message.marker_name = "cloth"
+        message.control_name = "drag"
+        message.event_type = event_type
+        message.pose.position = Point(*marker_position)
+        message.pose.orientation.w = 1.0
+        if mouse_point is not None:
+            message.mouse_point = mouse_point
+            message.mouse_point_valid = True
+        return message
+
+    def test_click_drag_and_let_go_moves_the_clicked_particle(self):
+        deadline = time.monotonic() + DEADLINE_S
+        while time.monotonic() < deadline and not (self.markers and self.feedback.get_num_connections() > 0):
+            time.sleep(0.05)
+        self.assertTrue(self.markers, "no interactive marker on /cloth_node/mouse/update_full")
+        self.assertIn("cloth", [m.name for m in self.markers[-1].markers])
+        self.assertGreater(self.feedback.get_num_connections(), 0, "nobody listens on ~mouse/feedback")
+        start = self.states.wait_for(lambda s: True)
+        self.assertIsNotNone(start, "no ~state")
+        corner = start.positions[CORNER]
+        clicked = Point(corner.x + 0.01, corner.y, corner.z + 0.01)  # on the cloth, nearest to the corner
+        target = Point(clicked.x + DRAG[0], clicked.y + DRAG[1], clicked.z + DRAG[2])
+
+        self.feedback.publish(self.feedback_message(InteractiveMarkerFeedback.MOUSE_DOWN, mouse_point=clicked))
+        drag = self.feedback_message(InteractiveMarkerFeedback.POSE_UPDATE, marker_position=DRAG)
+        followed = self.states.wait_for(lambda s: distance(s.positions[CORNER], target) < TOLERANCE_M,
+                                        keep_doing=lambda: self.feedback.publish(drag))
+        last = self.states.latest.positions[CORNER]
+        self.assertIsNotNone(followed, "the corner stayed %.3f m from the mouse's target" % distance(last, target))
+        self.assertTrue(all(math.isfinite(c) for p in followed.positions for c in (p.x, p.y, p.z)))
+
+        held_z = followed.positions[CORNER].z
+        self.feedback.publish(self.feedback_message(InteractiveMarkerFeedback.MOUSE_UP, marker_position=DRAG))
+        fallen = self.states.wait_for(lambda s: s.positions[CORNER].z < held_z - 0.1)
+        self.assertIsNotNone(fallen, "let go at z = %.3f m, the corner stayed at z = %.3f m"
+                             % (held_z, self.states.latest.positions[CORNER].z))
+
+
+if __name__ == "__main__":
+    rospy.init_node("test_mouse_drag")
+    rostest.rosrun("cloth_sim", "mouse_drag", MouseDrag)
