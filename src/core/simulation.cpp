@@ -102,9 +102,16 @@ ContactStats Simulation::integrateFrame(int substeps, StepReport* steps) {
   return contacts;
 }
 
+bool Simulation::isCalm() const {
+  return state_.velocities_m_per_s.colwise().norm().maxCoeff() <= kCalmSpeed_m_per_s &&
+         maxStructuralStrain() <= kCalmStrainFraction * kStrainWarning;
+}
+
 int Simulation::frameAutoScale() const {
+  // Only a calm cloth tries fewer substeps: one in motion (a flag in the wind, a cloth a hand drags) is
+  // what needed them, and a trial there would only cost a recomputation.
   const bool trial = memory_.auto_scale > 1 && options_.guard_retries &&
-                     (state_.frame + 1) % GuardMemory::kScaleTrialFrames == 0;
+                     (state_.frame + 1) % GuardMemory::kScaleTrialFrames == 0 && isCalm();
   return trial ? memory_.auto_scale / 2 : memory_.auto_scale;
 }
 
@@ -270,8 +277,8 @@ FrameReport Simulation::advanceFrame() {
   }
   report.stable_step_s = stableStepLimit_s(options_.integrator, bound_);
   std::string warning;
-  const int auto_scale = frameAutoScale();
-  const int first_substeps = firstSubsteps(report.stable_step_s, auto_scale, &warning);
+  int auto_scale = frameAutoScale();
+  int first_substeps = firstSubsteps(report.stable_step_s, auto_scale, &warning);
   const double step_s = options_.frameDuration_s() / first_substeps;
   report.stability_margin = std::isinf(report.stable_step_s) ? 0.0 : step_s / report.stable_step_s;
   if (warning.empty() && report.stability_margin > 1.0) {
@@ -283,6 +290,20 @@ FrameReport Simulation::advanceFrame() {
   frame_start_ = state_;
   const FrameEnvelope envelope = frameEnvelope();
   bool accepted = computeFrame(envelope, first_substeps, &report);
+  if (accepted && auto_scale < memory_.auto_scale && report.substeps_used == first_substeps && !isCalm()) {
+    // A trial the guard accepts may still stir the cloth (a hem on a table's edge jitters at one implicit
+    // step where it rests at two): unless the cloth is as calm after it as before, the frame is computed
+    // again at the remembered scale and the scale kept.
+    state_ = frame_start_;
+    energy_cache_valid_ = false;
+    auto_scale = memory_.auto_scale;
+    first_substeps = firstSubsteps(report.stable_step_s, auto_scale, nullptr);
+    FrameReport again;
+    again.stable_step_s = report.stable_step_s;
+    again.stability_margin = report.stability_margin;
+    report = again;
+    accepted = computeFrame(envelope, first_substeps, &report);
+  }
   report.recomputed = accepted && report.substeps_used != first_substeps;
   last_substeps_ = report.substeps_used;
   if (accepted) {

@@ -52,7 +52,7 @@ int openRegularFile(const std::string& path, struct stat* status, std::string* e
   if (::fstat(fd, status) != 0) {
     problem = std::string("cannot be read: ") + std::strerror(errno);
   } else if (S_ISDIR(status->st_mode)) {
-    problem = "is a directory, not a file";
+    problem = "is a directory, not a regular file";
   } else if (!S_ISREG(status->st_mode)) {
     problem = "not a regular file";
   }

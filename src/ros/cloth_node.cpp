@@ -63,6 +63,14 @@ bool ClothNode::start(std::string* error) {
       !optionalParameter(parameters, Names::kMeshRateParam, &mesh_rate_hz, error)) {
     return false;
   }
+  for (const auto& [name, value] : {std::pair<const char*, const std::string*>{Names::kFrameIdParam, &frame_id_},
+                                    {Names::kParentFrameParam, &parent_frame}, {Names::kSceneParam, &scene}}) {
+    const std::string problem = core::textLengthProblem(std::string("parameter ~") + name, *value);
+    if (!problem.empty()) {
+      *error = problem;
+      return false;
+    }
+  }
   if (frame_id_.empty() || frame_id_[0] == '/') {
     *error = "parameter ~frame_id = '" + frame_id_ + "': must be a non-empty tf frame name without a leading '/'";
     return false;
@@ -563,10 +571,10 @@ void ClothNode::cancelStep(const std::string& reason) {
 bool ClothNode::onLoadScene(cloth_sim::LoadScene::Request& request, cloth_sim::LoadScene::Response& response) {
   // All or nothing: the new scene is read, validated, built and textured completely before it replaces
   // the running one; any failure answers with the reason and the old scene carries on.
-  std::string error;
+  std::string error = core::textLengthProblem("scene", request.scene);
   std::unique_ptr<core::Simulation> simulation;
   try {
-    simulation = buildSimulation(request.scene, false, &error);
+    if (error.empty()) simulation = buildSimulation(request.scene, false, &error);
     if (simulation) install(std::move(simulation));
   } catch (const std::exception& e) {  // nothing was swapped: install throws only before its swap
     error = "scene '" + request.scene + "': " + e.what();
@@ -758,8 +766,8 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
 }
 
 bool ClothNode::onSaveState(cloth_sim::SaveState::Request& request, cloth_sim::SaveState::Response& response) {
-  std::string error;
-  if (!core::writeStateFile(request.path, simulation_->snapshot(), &error)) {
+  std::string error = core::textLengthProblem("path", request.path);
+  if (!error.empty() || !core::writeStateFile(request.path, simulation_->snapshot(), &error)) {
     response.success = false;
     response.message = "not saved: " + error;
     return true;
@@ -778,8 +786,8 @@ bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::L
     return true;
   };
   core::SimulationSnapshot snapshot;
-  std::string error;
-  if (!core::readStateFile(request.path, &snapshot, &error)) return refuse(error);
+  std::string error = core::textLengthProblem("path", request.path);
+  if (!error.empty() || !core::readStateFile(request.path, &snapshot, &error)) return refuse(error);
   const core::ClothGrid& grid = simulation_->grid();
   if (snapshot.options.rows != grid.rows || snapshot.options.cols != grid.cols) {
     return refuse(request.path + " holds a " + std::to_string(snapshot.options.rows) + "x" +

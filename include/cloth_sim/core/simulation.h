@@ -158,8 +158,14 @@ class Simulation {
  private:
   /// Substeps of a frame's first computation: the fixed count, or for `auto` the count the stable step
   /// needs times the remembered scale. *warning (if given) says when explicit needs more than the cap.
-  /// The auto scale this frame starts from: the remembered one, halved on a trial frame (GuardMemory).
+  /// The auto scale this frame starts from: the remembered one, halved on a trial frame of a calm cloth
+  /// (GuardMemory::kScaleTrialFrames).
   int frameAutoScale() const;
+  /// No particle faster than kCalmSpeed_m_per_s and the structural strain below kCalmStrainFraction of
+  /// kStrainWarning: a cloth at rest, not one flapping, dragged or stretched over an edge.
+  bool isCalm() const;
+  static constexpr double kCalmSpeed_m_per_s = 0.05;
+  static constexpr double kCalmStrainFraction = 0.5;
   int firstSubsteps(double stable_step_s, int auto_scale, std::string* warning) const;
   /// The energy and strain budgets of the frame about to be computed, from the state and the inputs.
   FrameEnvelope frameEnvelope() const;
