@@ -340,8 +340,9 @@ bool Simulation::recover(const FrameEnvelope& envelope, FrameReport* report) {
   std::ostringstream what;
   what << memory_.consecutive_rollbacks << " frames in a row rolled back (" << report->rejection << "): ";
   if (options_.integrator != IntegratorKind::kImplicitEuler || !options_.autoSubsteps()) {
-    // Implicit Euler with auto substeps is stable for every stiffness the options accept; switch to it
-    // for good (the node shows the change) rather than pay for failing attempts every frame.
+    // Implicit Euler with auto substeps cannot diverge at any stiffness the options accept (its solve can
+    // still stop unconverged at the extremes: then the reset below); switch to it for good (the node shows
+    // the change) rather than pay for failing attempts every frame.
     options_.integrator = IntegratorKind::kImplicitEuler;
     options_.substeps = SceneOptions::kAutoSubsteps;
     integrator_ = makeIntegrator(options_.integrator, options_.solver);
