@@ -244,6 +244,43 @@ TEST(SecondPass, AutoSubstepsComeBackToWhatTheSceneNeedsOnceTheClothIsCalm) {
   EXPECT_TRUE(std::is_sorted(substeps.rbegin(), substeps.rend())) << "only ever down while calm";
 }
 
+TEST(SecondPass, AfterGraspJerksStopTheSubstepsReturnToWhatTheSceneNeededWithinSeconds) {
+  SceneOptions options = test::loadBuiltinScene("hanging");
+  options.rows = 10;
+  options.cols = 10;
+  Simulation simulation(options);
+  for (int frame = 0; frame < 100; ++frame) ASSERT_TRUE(simulation.advanceFrame().stable);
+  ASSERT_EQ(simulation.guardMemory().auto_scale, 1);
+  const int calm_substeps = simulation.advanceFrame().substeps_used;
+  // A hand on the bottom corner jerked 1.6 m to and fro every frame, as the hard jerks: the
+  // guard recomputes frames with more substeps and remembers the scale.
+  GraspRequest hand;
+  hand.id = 1;
+  hand.particle = 99;
+  hand.stiffness_N_per_m = 1e5;
+  const Eigen::Vector3d rest_m = simulation.state().positions_m.col(99);
+  std::string error;
+  for (int frame = 0; frame < 60; ++frame) {
+    hand.target_m = rest_m + Eigen::Vector3d(frame % 2 ? 0.8 : -0.8, 0.0, 0.3);
+    ASSERT_TRUE(simulation.grab(hand, &error)) << error;
+    ASSERT_TRUE(simulation.advanceFrame().stable);
+  }
+  ASSERT_GT(simulation.guardMemory().auto_scale, 1) << "the jerks did not raise the scale: nothing to come down";
+  // The hand holds still. Within 10 trials (160 frames, 3.2 s at 50 Hz) the scale is back at 1; every
+  // frame on the way accepted and the cloth finite.
+  hand.target_m = rest_m;
+  ASSERT_TRUE(simulation.grab(hand, &error)) << error;
+  const std::uint64_t most_frames = 10 * GuardMemory::kScaleTrialFrames;
+  for (std::uint64_t frame = 0; frame < most_frames && simulation.guardMemory().auto_scale > 1; ++frame) {
+    const FrameReport report = simulation.advanceFrame();
+    ASSERT_TRUE(report.stable) << report.reason;
+    ASSERT_TRUE(report.recovery.empty()) << report.recovery;
+    ASSERT_TRUE(isFiniteAndBounded(simulation.state(), Simulation::kDivergenceBound_m));
+  }
+  EXPECT_EQ(simulation.guardMemory().auto_scale, 1) << "still at " << simulation.guardMemory().auto_scale;
+  EXPECT_EQ(simulation.advanceFrame().substeps_used, calm_substeps);
+}
+
 TEST(SecondPass, AScaleTheClothStillNeedsIsKeptAndTheTrialFramesStayBitExactThroughAFile) {
   // A restored run tries the same frames: the trial follows the frame number, which the file holds.
   SceneOptions options = test::loadBuiltinScene("hanging");
@@ -321,3 +358,4 @@ TEST(SecondPass, ASceneResetByTheRecoveryNamesTheGraspsItReleased) {
 
 }  // namespace
 }  // namespace cloth_sim::core
+
