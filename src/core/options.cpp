@@ -134,10 +134,29 @@ void validateCameras(const std::vector<CameraOptions>& cameras, Problems& proble
 
 }  // namespace
 
+std::string textLengthProblem(const std::string& field, const std::string& value) {
+  if (value.size() <= OptionLimits::kMaxTextChars) return "";
+  return field + ": " + std::to_string(value.size()) + " characters: at most " +
+         std::to_string(OptionLimits::kMaxTextChars);
+}
+
 std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   using L = OptionLimits;
   Problems problems;
   if (o.name.empty()) problems.fail("name is empty: a scene needs a name");
+  // A too-long string is reported by its length (later checks quote at most a cut excerpt of it).
+  const auto checkText = [&](const std::string& field, const std::string& value) {
+    const std::string problem = textLengthProblem(field, value);
+    if (!problem.empty()) problems.fail(problem);
+  };
+  checkText("name", o.name);
+  checkText("texture", o.texture);
+  if (o.pins.size() > L::kMaxPinSelectors) {
+    problems.fail("pins: " + std::to_string(o.pins.size()) + " selectors: at most " +
+                  std::to_string(L::kMaxPinSelectors));
+    return problems.take();
+  }
+  for (std::size_t i = 0; i < o.pins.size(); ++i) checkText("pins[" + std::to_string(i) + "]", o.pins[i]);
   problems.inRange("rows", o.rows, L::kMinGridSide, L::kMaxGridSide);
   problems.inRange("cols", o.cols, L::kMinGridSide, L::kMaxGridSide);
   problems.positive("width", o.width_m, L::kMaxClothSide_m);
@@ -148,7 +167,7 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   if (o.u_axis.allFinite() && o.v_axis.allFinite() && std::abs(o.u_axis.dot(o.v_axis)) > kUnitTolerance) {
     problems.fail("u_axis and v_axis: must be orthogonal");
   }
-  problems.positive("mass", o.mass_kg, L::kMaxMass_kg);
+  problems.inRange("mass", o.mass_kg, L::kMinMass_kg, L::kMaxMass_kg);
   problems.finiteVector("gravity", o.gravity_m_per_s2, L::kMaxAcceleration_m_per_s2);
   for (int k = 0; k < kSpringKindCount; ++k) {
     const std::string kind = springKindName(static_cast<SpringKind>(k));

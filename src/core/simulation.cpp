@@ -93,16 +93,29 @@ ContactStats Simulation::integrateFrame(int substeps, StepReport* steps) {
   return contacts;
 }
 
-int Simulation::firstSubsteps(double stable_step_s, std::string* warning) const {
+bool Simulation::isCalm() const {
+  return state_.velocities_m_per_s.colwise().norm().maxCoeff() <= kCalmSpeed_m_per_s &&
+         maxStructuralStrain() <= kCalmStrainFraction * kStrainWarning;
+}
+
+int Simulation::frameAutoScale() const {
+  // Only a calm cloth tries fewer substeps: one in motion (a flag in the wind, a cloth a hand drags) is
+  // what needed them, and a trial there would only cost a recomputation.
+  const bool trial = memory_.auto_scale > 1 && options_.guard_retries &&
+                     (state_.frame + 1) % GuardMemory::kScaleTrialFrames == 0 && isCalm();
+  return trial ? memory_.auto_scale / 2 : memory_.auto_scale;
+}
+
+int Simulation::firstSubsteps(double stable_step_s, int auto_scale, std::string* warning) const {
   if (!options_.autoSubsteps()) return options_.substeps;
-  if (options_.integrator == IntegratorKind::kImplicitEuler) return memory_.auto_scale;
+  if (options_.integrator == IntegratorKind::kImplicitEuler) return auto_scale;
   const double needed = std::ceil(options_.frameDuration_s() / (StabilityGuard::kStepSafetyFraction * stable_step_s));
   if (!(needed <= OptionLimits::kMaxSubsteps)) {
     if (warning != nullptr) *warning = std::string(integratorName(options_.integrator)) + " needs more than " +
                std::to_string(OptionLimits::kMaxSubsteps) + " substeps here: use implicit_euler";
     return OptionLimits::kMaxSubsteps;
   }
-  return std::min(std::max(static_cast<int>(needed), 1) * memory_.auto_scale, OptionLimits::kMaxSubsteps);
+  return std::min(std::max(static_cast<int>(needed), 1) * auto_scale, OptionLimits::kMaxSubsteps);
 }
 
 FrameEnvelope Simulation::frameEnvelope() const {
@@ -149,24 +162,32 @@ bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps,
   return false;
 }
 
-void Simulation::rememberFrame(const FrameReport& report, int first_substeps) {
+void Simulation::rememberFrame(const FrameReport& report, int first_substeps, int auto_scale) {
   // A solve cut off at its iteration cap is not a reason by itself: conjugate gradients started at zero
   // never add energy, and a result the guard accepts is kept (the diagnostics show the cap was hit).
-  const bool struggled = report.substeps_used != first_substeps;
-  if (!options_.autoSubsteps() || !struggled) return;
-  // Start the next frames where this one succeeded.
-  memory_.auto_scale = std::min(memory_.auto_scale * (report.substeps_used / first_substeps), GuardMemory::kMaxScale);
+  if (!options_.autoSubsteps()) return;
+  // Start the next frames where this one succeeded: at the scale it started from (half the remembered
+  // one on a trial frame) times the doublings it needed.
+  memory_.auto_scale = std::min(auto_scale * (report.substeps_used / first_substeps), GuardMemory::kMaxScale);
 }
 
 FrameReport Simulation::advanceFrame() {
   FrameReport report;
+  if (state_.time_s + options_.frameDuration_s() > OptionLimits::kMaxSimTime_s || state_.frame >= OptionLimits::kMaxFrame) {
+    // 31.7 years of simulated time: beyond it a frame would no longer advance time by its duration.
+    report.stable = false;
+    report.reason = "the simulation reached its end (" + std::to_string(OptionLimits::kMaxSimTime_s) + " s or frame " +
+                    std::to_string(OptionLimits::kMaxFrame) + "): reset it";
+    return report;
+  }
   if (bound_stale_) {
     bound_ = estimateStiffnessBound(options_, grid_, mass_kg_, inputs_);
     bound_stale_ = false;
   }
   report.stable_step_s = stableStepLimit_s(options_.integrator, bound_);
   std::string warning;
-  const int first_substeps = firstSubsteps(report.stable_step_s, &warning);
+  int auto_scale = frameAutoScale();
+  int first_substeps = firstSubsteps(report.stable_step_s, auto_scale, &warning);
   const double step_s = options_.frameDuration_s() / first_substeps;
   report.stability_margin = std::isinf(report.stable_step_s) ? 0.0 : step_s / report.stable_step_s;
   if (warning.empty() && report.stability_margin > 1.0) {
@@ -178,10 +199,24 @@ FrameReport Simulation::advanceFrame() {
   frame_start_ = state_;
   const FrameEnvelope envelope = frameEnvelope();
   bool accepted = computeFrame(envelope, first_substeps, &report);
+  if (accepted && auto_scale < memory_.auto_scale && report.substeps_used == first_substeps && !isCalm()) {
+    // A trial the guard accepts may still stir the cloth (a hem on a table's edge jitters at one implicit
+    // step where it rests at two): unless the cloth is as calm after it as before, the frame is computed
+    // again at the remembered scale and the scale kept.
+    state_ = frame_start_;
+    energy_cache_valid_ = false;
+    auto_scale = memory_.auto_scale;
+    first_substeps = firstSubsteps(report.stable_step_s, auto_scale, nullptr);
+    FrameReport again;
+    again.stable_step_s = report.stable_step_s;
+    again.stability_margin = report.stability_margin;
+    report = again;
+    accepted = computeFrame(envelope, first_substeps, &report);
+  }
   report.recomputed = accepted && report.substeps_used != first_substeps;
   last_substeps_ = report.substeps_used;
   if (accepted) {
-    rememberFrame(report, first_substeps);
+    rememberFrame(report, first_substeps, auto_scale);
     memory_.consecutive_rollbacks = 0;
   } else if (++memory_.consecutive_rollbacks >= GuardMemory::kRollbacksBeforeRecovery) {
     accepted = recover(envelope, &report);
@@ -214,13 +249,14 @@ bool Simulation::recover(const FrameEnvelope& envelope, FrameReport* report) {
   std::ostringstream what;
   what << memory_.consecutive_rollbacks << " frames in a row rolled back (" << report->rejection << "): ";
   if (options_.integrator != IntegratorKind::kImplicitEuler || !options_.autoSubsteps()) {
-    // Implicit Euler with auto substeps is stable for every stiffness the options accept; switch to it
-    // for good (the node shows the change) rather than pay for failing attempts every frame.
+    // Implicit Euler with auto substeps cannot diverge at any stiffness the options accept (its solve can
+    // still stop unconverged at the extremes: then the reset below); switch to it for good (the node shows
+    // the change) rather than pay for failing attempts every frame.
     options_.integrator = IntegratorKind::kImplicitEuler;
     options_.substeps = SceneOptions::kAutoSubsteps;
     integrator_ = makeIntegrator(options_.integrator, options_.solver);
     memory_ = GuardMemory();
-    if (computeFrame(envelope, firstSubsteps(std::numeric_limits<double>::infinity(), nullptr), report)) {
+    if (computeFrame(envelope, firstSubsteps(std::numeric_limits<double>::infinity(), memory_.auto_scale, nullptr), report)) {
       what << "switched from " << failing << " to implicit_euler with substeps auto";
       report->recovery = what.str();
       return true;
@@ -228,9 +264,17 @@ bool Simulation::recover(const FrameEnvelope& envelope, FrameReport* report) {
   }
   // Not even that: the state itself is beyond saving (or an input is). Start the scene again, keeping the
   // tuning and the wind, rather than stay frozen.
+  for (const Grasp& grasp : inputs_.grasps) report->released_grasp_ids.push_back(grasp.id);
   reset();
   report->scene_reset = true;
-  what << "the scene was reset to its initial state (grasps released)";
+  what << "the scene was reset to its initial state";
+  if (!report->released_grasp_ids.empty()) {
+    what << "; released grasp ids";
+    for (std::size_t g = 0; g < report->released_grasp_ids.size(); ++g) {
+      what << (g == 0 ? " " : ", ") << report->released_grasp_ids[g];
+    }
+    what << ": their clients must grasp again";
+  }
   report->recovery = what.str();
   report->max_strain = maxStructuralStrain();
   return true;
@@ -447,8 +491,15 @@ std::string checkState(const ClothState& state, int particles) {
       !problem.empty()) {
     return problem;
   }
-  if (!std::isfinite(state.time_s) || state.time_s < 0.0) {
-    return "state time " + std::to_string(state.time_s) + " s: must be finite and >= 0";
+  // Bounds the simulation itself keeps (advanceFrame stops there), so time still advances by a frame
+  // and the counter cannot wrap: a file with time 1e300 s and frame 2^64 - 1 froze both.
+  if (!std::isfinite(state.time_s) || state.time_s < 0.0 || state.time_s > OptionLimits::kMaxSimTime_s) {
+    std::ostringstream out;
+    out << "state time " << state.time_s << " s: must be in [0, " << OptionLimits::kMaxSimTime_s << "]";
+    return out.str();
+  }
+  if (state.frame > OptionLimits::kMaxFrame) {
+    return "state frame " + std::to_string(state.frame) + ": must be at most " + std::to_string(OptionLimits::kMaxFrame);
   }
   return "";
 }

@@ -1,5 +1,8 @@
 #include "cloth_sim/io/scene_file.h"
 
+#include "cloth_sim/io/bounded_file.h"
+#include "cloth_sim/io/texture.h"
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -329,49 +332,6 @@ bool hasSceneExtension(const fs::path& path) {
   return extension == ".yaml" || extension == ".yml";
 }
 
-/// The file's text, or false with the reason: only a regular file of at most `max_bytes`, checked before
-/// a byte is read (a FIFO would block, a device or a huge file would never end), and again while
-/// reading (a file that grew, a /proc file that stat calls empty).
-bool readBoundedRegularFile(const std::string& path, std::uintmax_t max_bytes, std::string* text, std::string* error) {
-  std::error_code ec;
-  const fs::file_status status = fs::status(path, ec);
-  if (ec || !fs::exists(status)) {
-    *error = "no such file";
-    return false;
-  }
-  if (fs::is_directory(status)) {
-    *error = "is a directory, not a file";
-    return false;
-  }
-  if (!fs::is_regular_file(status)) {
-    *error = "not a regular file";
-    return false;
-  }
-  const std::string too_big = "larger than the limit of " + std::to_string(max_bytes) + " bytes";
-  const std::uintmax_t size = fs::file_size(path, ec);
-  if (ec) {
-    *error = "cannot be read";
-    return false;
-  }
-  if (size > max_bytes) {
-    *error = std::to_string(size) + " bytes: " + too_big;
-    return false;
-  }
-  std::ifstream file(path, std::ios::binary);
-  if (!file) {
-    *error = "cannot be opened";
-    return false;
-  }
-  text->assign(static_cast<std::size_t>(max_bytes) + 1, '\0');
-  file.read(&(*text)[0], static_cast<std::streamsize>(text->size()));
-  text->resize(static_cast<std::size_t>(file.gcount()));
-  if (text->size() > max_bytes) {
-    *error = too_big;
-    return false;
-  }
-  return true;
-}
-
 }  // namespace
 
 bool loadSceneFile(const std::string& path, SceneOptions* options, std::vector<std::string>* errors) {
@@ -410,17 +370,11 @@ bool loadSceneFile(const std::string& path, SceneOptions* options, std::vector<s
     loaded.texture = (fs::path(path).parent_path() / loaded.texture).string();
   }
   if (!loaded.texture.empty()) {
-    // Checked here, before the image reader opens it: a FIFO or a device would block it.
-    std::error_code ec;
-    const fs::file_status status = fs::status(loaded.texture, ec);
-    if (!fs::is_regular_file(status)) {
-      errors->push_back(source + ": texture " + quoted(texture_as_written) + ": not a regular file");
-      return false;
-    }
-    const std::uintmax_t size = fs::file_size(loaded.texture, ec);
-    if (ec || size > kMaxTextureFileBytes) {
-      errors->push_back(source + ": texture " + quoted(texture_as_written) + ": larger than the limit of " +
-                        std::to_string(kMaxTextureFileBytes) + " bytes");
+    // The same check every way a texture arrives goes through (the image reader makes it again on the
+    // opened file): reported here with the file's own spelling of the path.
+    const std::string problem = textureFileProblem(loaded.texture);
+    if (!problem.empty()) {
+      errors->push_back(source + ": texture " + quoted(texture_as_written) + ": " + problem);
       return false;
     }
   }

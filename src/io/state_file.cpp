@@ -1,5 +1,6 @@
 #include "cloth_sim/io/state_file.h"
 
+#include "cloth_sim/io/bounded_file.h"
 #include "cloth_sim/io/scene_file.h"
 
 #include <yaml-cpp/yaml.h>
@@ -361,20 +362,28 @@ bool writeStateFile(const std::string& path, const SimulationSnapshot& snapshot,
     *error = "no path given";
     return false;
   }
-  std::error_code ec;
-  if (fs::is_directory(path, ec)) {
-    *error = path + " is a directory";
-    return false;
-  }
-  // Any ROS peer may ask for a save: replace only state files, so a mistyped or hostile path cannot
-  // destroy another file the node can write.
-  if (fs::exists(fs::symlink_status(path, ec))) {
-    char magic[sizeof(F::kMagic)] = {};
-    std::ifstream existing(path, std::ios::binary);
-    if (!fs::is_regular_file(fs::symlink_status(path, ec)) || !existing.read(magic, sizeof(magic)) ||
-        std::memcmp(magic, F::kMagic, sizeof(magic)) != 0) {
-      *error = path + " exists and is not a cloth_sim state file: not replaced";
+  // What the path is, before anything opens it (lstat: a link is not followed): opening a FIFO blocked
+  // the node until something wrote to it. Any ROS peer may ask for a save: replace only state files, so
+  // a mistyped or hostile path cannot destroy another file the node can write.
+  switch (pathKind(path)) {
+    case PathKind::kAbsent:
+      break;
+    case PathKind::kDirectory:
+      *error = path + " is a directory";
       return false;
+    case PathKind::kOther:
+      *error = path + " exists and is not a regular file (a link, FIFO, device or socket): not replaced";
+      return false;
+    case PathKind::kRegularFile: {
+      // Its magic, read non-blocking as every file a request names.
+      std::string existing;
+      std::string ignored;
+      if (!readRegularFileStart(path, sizeof(F::kMagic), &existing, &ignored) || existing.size() < sizeof(F::kMagic) ||
+          std::memcmp(existing.data(), F::kMagic, sizeof(F::kMagic)) != 0) {
+        *error = path + " exists and is not a cloth_sim state file: not replaced";
+        return false;
+      }
+      break;
     }
   }
   const std::string bytes = encodeStateFile(snapshot);
@@ -413,29 +422,16 @@ bool writeStateFile(const std::string& path, const SimulationSnapshot& snapshot,
 }
 
 bool readStateFile(const std::string& path, SimulationSnapshot* snapshot, std::string* error) {
-  std::error_code ec;
   if (path.empty()) {
     *error = "no path given";
     return false;
   }
-  if (!fs::is_regular_file(path, ec)) {
-    *error = path + ": no such file (or not a regular file)";
-    return false;
-  }
-  const std::uintmax_t size = fs::file_size(path, ec);
-  if (ec) {
-    *error = path + ": cannot read its size: " + ec.message();
-    return false;
-  }
-  if (size > F::kMaxFileBytes) {
-    *error = path + ": " + std::to_string(size) + " bytes, more than a state file of the largest grid can hold (" +
-             std::to_string(F::kMaxFileBytes) + ")";
-    return false;
-  }
-  std::ifstream file(path, std::ios::binary);
-  std::string bytes(static_cast<std::size_t>(size), '\0');
-  if (!file || !file.read(bytes.data(), static_cast<std::streamsize>(bytes.size()))) {
-    *error = path + ": cannot read it";
+  std::string bytes;
+  std::string read_error;
+  if (!readBoundedRegularFile(path, F::kMaxFileBytes, &bytes, &read_error)) {
+    *error = path + ": " + read_error + (read_error.find("larger than") != std::string::npos
+                                             ? " (more than a state file of the largest grid can hold)"
+                                             : "");
     return false;
   }
   std::string reason;

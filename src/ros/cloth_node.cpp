@@ -4,6 +4,7 @@
 #include "cloth_sim/io/state_file.h"
 #include "cloth_sim/io/texture.h"
 #include "cloth_sim/ros/conversions.h"
+#include "cloth_sim/ros/shutdown.h"
 
 #include <boost/make_shared.hpp>
 #include <ros/package.h>
@@ -61,6 +62,14 @@ bool ClothNode::start(std::string* error) {
       !optionalParameter(parameters, Names::kMeshRateParam, &mesh_rate_hz, error)) {
     return false;
   }
+  for (const auto& [name, value] : {std::pair<const char*, const std::string*>{Names::kFrameIdParam, &frame_id_},
+                                    {Names::kParentFrameParam, &parent_frame}, {Names::kSceneParam, &scene}}) {
+    const std::string problem = core::textLengthProblem(std::string("parameter ~") + name, *value);
+    if (!problem.empty()) {
+      *error = problem;
+      return false;
+    }
+  }
   if (frame_id_.empty() || frame_id_[0] == '/') {
     *error = "parameter ~frame_id = '" + frame_id_ + "': must be a non-empty tf frame name without a leading '/'";
     return false;
@@ -91,9 +100,16 @@ bool ClothNode::start(std::string* error) {
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_);
   cameras_ = std::make_unique<DepthCameras>(pnh_, tf_buffer_, frame_id_, simulation_->options().cameras);
   wind_sub_ = pnh_.subscribe(Names::kWindTopic, 10, &ClothNode::onWind, this);
-  grasp_sub_ = pnh_.subscribe(Names::kGraspTopic, 10, &ClothNode::onGrasp, this);
+  ros::SubscribeOptions grasp_options = ros::SubscribeOptions::create<cloth_sim::Grasp>(
+      Names::kGraspTopic, kGraspSubscriberQueue,
+      [this](const cloth_sim::Grasp::ConstPtr& message) { onGraspReceived(message); }, ros::VoidConstPtr(),
+      &grasp_receive_queue_);
+  grasp_sub_ = pnh_.subscribe(grasp_options);
+  grasp_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &grasp_receive_queue_);
+  grasp_spinner_->start();
+  // The mouse's commands join ~grasp's queue, so they are applied in order with the topic's.
   mouse_ = std::make_unique<MouseDrag>(pnh_.resolveName(Names::kMouseNamespace), [this](const cloth_sim::Grasp& grasp) {
-    onGrasp(boost::make_shared<const cloth_sim::Grasp>(grasp));
+    onGraspReceived(boost::make_shared<const cloth_sim::Grasp>(grasp));
   });
   reset_srv_ = pnh_.advertiseService(Names::kResetService, &ClothNode::onReset, this);
   pause_srv_ = pnh_.advertiseService(Names::kPauseService, &ClothNode::onPause, this);
@@ -135,6 +151,7 @@ bool ClothNode::start(std::string* error) {
   }
 
   timer_ = pnh_.createTimer(ros::Duration(simulation_->options().frameDuration_s()), &ClothNode::onTimer, this);
+  signal_timer_ = pnh_.createWallTimer(ros::WallDuration(kSignalPoll_s), &ClothNode::onSignalPoll, this);
   ROS_INFO("cloth_node: scene '%s', %dx%d particles, %s with %d substeps, %.0f Hz, frame '%s'",
            simulation_->options().name.c_str(), simulation_->grid().rows, simulation_->grid().cols,
            core::integratorName(simulation_->options().integrator), simulation_->options().substeps,
@@ -149,6 +166,7 @@ ClothNode::~ClothNode() {
   }
   step_done_.notify_all();
   if (step_spinner_) step_spinner_->stop();
+  if (grasp_spinner_) grasp_spinner_->stop();
   pnh_.getCallbackQueue()->removeByID(reinterpret_cast<std::uint64_t>(this));
 }
 
@@ -334,7 +352,45 @@ void ClothNode::onWind(const geometry_msgs::Vector3Stamped::ConstPtr& message) {
   simulation_->setWindVelocity(Eigen::Vector3d(wind.vector.x, wind.vector.y, wind.vector.z));
 }
 
-void ClothNode::onGrasp(const cloth_sim::Grasp::ConstPtr& message) {
+/// Applies the filed ~grasp commands on the node's callback queue (the spin thread).
+class ClothNode::GraspDrain : public ros::CallbackInterface {
+ public:
+  explicit GraspDrain(ClothNode* node) : node_(node) {}
+  CallResult call() override {
+    node_->applyPendingGrasps();
+    return Success;
+  }
+
+ private:
+  ClothNode* node_;
+};
+
+void ClothNode::onGraspReceived(const cloth_sim::Grasp::ConstPtr& message) {
+  // A drain is queued when the first command arrives; later ones join it until it runs.
+  if (grasp_commands_.push(message)) {
+    pnh_.getCallbackQueue()->addCallback(boost::make_shared<GraspDrain>(this), reinterpret_cast<std::uint64_t>(this));
+  }
+}
+
+void ClothNode::applyPendingGrasps() {
+  for (const cloth_sim::Grasp::ConstPtr& command : grasp_commands_.take()) applyGrasp(command);
+  const std::size_t dropped = grasp_commands_.takeDropped();
+  if (dropped > 0) {
+    ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped %zu ~grasp GRABs: more than %zu ids pending at once",
+                      dropped, GraspCommandQueue::kMaxPendingIds);
+  }
+}
+
+void ClothNode::onSignalPoll(const ros::WallTimerEvent&) {
+  if (shutdown_begun_ || !shutdownSignalled()) return;
+  shutdown_begun_ = true;
+  cancelStep("the node is shutting down (" + shutdownSignalName() + ")");
+  // Behind the step service's callback on its single thread: it runs once that callback has returned,
+  // and roscpp writes a service's answer before its callback returns to the queue.
+  step_queue_.addCallback(boost::make_shared<ShutdownRequest>(), reinterpret_cast<std::uint64_t>(this));
+}
+
+void ClothNode::applyGrasp(const cloth_sim::Grasp::ConstPtr& message) {
   if (message->action == cloth_sim::Grasp::RELEASE) {
     if (!simulation_->release(message->id)) {
       ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp RELEASE: no grasp with id %u", message->id);
@@ -461,17 +517,16 @@ void ClothNode::runStepChunk(const std::shared_ptr<StepJob>& job) {
       return;
     }
     job->started = true;
-    job->first_frame = simulation_->state().frame;
     job->start_time = std::chrono::steady_clock::now();
     active_step_ = job;
   }
   if (active_step_ != job) return;  // cancelled (and answered) while this chunk waited in the queue
   const auto overrun = std::chrono::duration<double>(kMaxStepWork_s * kStepOverrunFactor);
   const auto chunk_end = std::chrono::steady_clock::now() + std::chrono::duration<double>(kStepChunk_s);
-  while (simulation_->state().frame - job->first_frame < job->frames) {
+  while (job->frames_done < job->frames) {
     const auto now = std::chrono::steady_clock::now();
-    if (!ros::ok()) {
-      cancelStep("the node is shutting down");
+    if (!ros::ok() || shutdownSignalled()) {
+      cancelStep("the node is shutting down" + (shutdownSignalled() ? " (" + shutdownSignalName() + ")" : std::string()));
       return;
     }
     if (now - job->start_time > overrun) {
@@ -486,10 +541,10 @@ void ClothNode::runStepChunk(const std::shared_ptr<StepJob>& job) {
       return;
     }
     if (!advanceFrames(1)) {
-      const std::uint64_t advanced = simulation_->state().frame - job->first_frame;
-      finishStep(false, "stopped after " + std::to_string(advanced) + " frames: " + last_report_.reason);
+      finishStep(false, "stopped after " + std::to_string(job->frames_done) + " frames: " + last_report_.reason);
       return;
     }
+    ++job->frames_done;
   }
   finishStep(true, "advanced " + std::to_string(job->frames) + " frames");
 }
@@ -511,17 +566,16 @@ void ClothNode::finishStep(bool success, const std::string& message) {
 
 void ClothNode::cancelStep(const std::string& reason) {
   if (!active_step_) return;
-  const std::uint64_t advanced = simulation_->state().frame - active_step_->first_frame;
-  finishStep(false, "stopped after " + std::to_string(advanced) + " frames: " + reason);
+  finishStep(false, "stopped after " + std::to_string(active_step_->frames_done) + " frames: " + reason);
 }
 
 bool ClothNode::onLoadScene(cloth_sim::LoadScene::Request& request, cloth_sim::LoadScene::Response& response) {
   // All or nothing: the new scene is read, validated, built and textured completely before it replaces
   // the running one; any failure answers with the reason and the old scene carries on.
-  std::string error;
+  std::string error = core::textLengthProblem("scene", request.scene);
   std::unique_ptr<core::Simulation> simulation;
   try {
-    simulation = buildSimulation(request.scene, false, &error);
+    if (error.empty()) simulation = buildSimulation(request.scene, false, &error);
     if (simulation) install(std::move(simulation));
   } catch (const std::exception& e) {  // nothing was swapped: install throws only before its swap
     error = "scene '" + request.scene + "': " + e.what();
@@ -705,6 +759,9 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("solver iterations per step", static_cast<double>(last_report_.steps.solver_iterations) / steps);
   status.add("solver converged", last_report_.steps.converged);
   status.add("paused", paused_);
+  std::string held;  // ids, so that a client can see whether its grasp is still held
+  for (const core::Grasp& grasp : simulation_->grasps()) held += (held.empty() ? "" : ", ") + std::to_string(grasp.id);
+  status.add("grasps held", held);
   if (!non_finite.empty()) {
     status.mergeSummary(diagnostic_msgs::DiagnosticStatus::ERROR, "not finite: " + join(non_finite, ", "));
   }
@@ -717,8 +774,8 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
 }
 
 bool ClothNode::onSaveState(cloth_sim::SaveState::Request& request, cloth_sim::SaveState::Response& response) {
-  std::string error;
-  if (!core::writeStateFile(request.path, simulation_->snapshot(), &error)) {
+  std::string error = core::textLengthProblem("path", request.path);
+  if (!error.empty() || !core::writeStateFile(request.path, simulation_->snapshot(), &error)) {
     response.success = false;
     response.message = "not saved: " + error;
     return true;
@@ -737,8 +794,8 @@ bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::L
     return true;
   };
   core::SimulationSnapshot snapshot;
-  std::string error;
-  if (!core::readStateFile(request.path, &snapshot, &error)) return refuse(error);
+  std::string error = core::textLengthProblem("path", request.path);
+  if (!error.empty() || !core::readStateFile(request.path, &snapshot, &error)) return refuse(error);
   const core::ClothGrid& grid = simulation_->grid();
   if (snapshot.options.rows != grid.rows || snapshot.options.cols != grid.cols) {
     return refuse(request.path + " holds a " + std::to_string(snapshot.options.rows) + "x" +

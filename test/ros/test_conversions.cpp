@@ -3,7 +3,9 @@
 // state message from another node is checked before it is drawn.
 #include "cloth_sim/io/scene_file.h"
 #include "cloth_sim/ros/conversions.h"
+#include "cloth_sim/ros/grasp_queue.h"
 
+#include <boost/make_shared.hpp>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -136,6 +138,54 @@ TEST(FromStateMessage, RefusesANonFinitePosition) {
   message.positions[3].y = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(cloth_sim::fromStateMessage(message, 512, &positions_m, &error));
   EXPECT_EQ(error, "a position is not finite");
+}
+
+// ---- GraspCommandQueue (issue 18): the last command of each id survives any flood ------------------
+
+cloth_sim::Grasp::ConstPtr graspCommand(std::uint32_t id, std::uint8_t action, double x = 0.0) {
+  auto command = boost::make_shared<cloth_sim::Grasp>();
+  command->id = id;
+  command->action = action;
+  command->target.x = x;
+  return command;
+}
+
+TEST(GraspCommandQueue, AFloodKeepsTheLastCommandOfEachIdInTheOrderOfTheirLastArrival) {
+  cloth_sim::GraspCommandQueue queue;
+  EXPECT_TRUE(queue.push(graspCommand(1, cloth_sim::Grasp::GRAB))) << "the first one asks for a drain";
+  EXPECT_FALSE(queue.push(graspCommand(2, cloth_sim::Grasp::GRAB)));
+  // 1000 rounds of GRAB and RELEASE of 16 ids, ending in RELEASE: a queue of 10 kept the last 10 only.
+  for (int round = 0; round < 1000; ++round) {
+    for (const std::uint8_t action : {cloth_sim::Grasp::GRAB, cloth_sim::Grasp::RELEASE}) {
+      for (std::uint32_t id = 0; id < 16; ++id) queue.push(graspCommand(id, action, round));
+    }
+  }
+  const std::vector<cloth_sim::Grasp::ConstPtr> pending = queue.take();
+  ASSERT_EQ(pending.size(), 16u);
+  for (std::uint32_t id = 0; id < 16; ++id) {
+    EXPECT_EQ(pending[id]->id, id);
+    EXPECT_EQ(pending[id]->action, cloth_sim::Grasp::RELEASE) << "id " << id;
+  }
+  EXPECT_TRUE(queue.take().empty());
+  EXPECT_EQ(queue.takeDropped(), 0u);
+  // A hand dragged at 900 Hz: only its latest target is applied.
+  for (int k = 0; k < 100; ++k) queue.push(graspCommand(5, cloth_sim::Grasp::GRAB, k));
+  const std::vector<cloth_sim::Grasp::ConstPtr> dragged = queue.take();
+  ASSERT_EQ(dragged.size(), 1u);
+  EXPECT_EQ(dragged.front()->target.x, 99.0);
+}
+
+TEST(GraspCommandQueue, PastItsIdLimitGrabsMakeRoomAndReleasesStay) {
+  cloth_sim::GraspCommandQueue queue;
+  queue.push(graspCommand(0, cloth_sim::Grasp::RELEASE));
+  for (std::uint32_t id = 1; id <= cloth_sim::GraspCommandQueue::kMaxPendingIds; ++id) {
+    queue.push(graspCommand(id, cloth_sim::Grasp::GRAB));
+  }
+  EXPECT_EQ(queue.takeDropped(), 1u);
+  const std::vector<cloth_sim::Grasp::ConstPtr> pending = queue.take();
+  ASSERT_EQ(pending.size(), cloth_sim::GraspCommandQueue::kMaxPendingIds);
+  EXPECT_EQ(pending.front()->id, 0u) << "the RELEASE stayed; the oldest GRAB (id 1) made room";
+  EXPECT_EQ(pending[1]->id, 2u);
 }
 
 }  // namespace

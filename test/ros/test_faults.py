@@ -207,6 +207,14 @@ class Faults(unittest.TestCase):
         self.expect_clean_exit(node, master, signal.SIGTERM)
 
     def test_an_absurdly_long_step_is_refused_and_sigint_stops_a_long_one(self):
+        self.check_a_signal_during_a_long_step_answers_it(signal.SIGINT)
+
+    def test_sigterm_during_a_long_step_answers_it_before_the_node_leaves(self):
+        self.check_a_signal_during_a_long_step_answers_it(signal.SIGTERM)
+
+    def check_a_signal_during_a_long_step_answers_it(self, signal_number):
+        """The caller of a ~step in progress gets success=false with the reason (issue 18: it got a
+        transport error, the node having shut its connections before answering)."""
         master = self.start_master()
         node = self.start_node(master, MID_GRID)
         self.assertIn("success: True", call(master, "pause", "true"))
@@ -218,13 +226,17 @@ class Faults(unittest.TestCase):
         paused_frame = latest_frame(master)
         self.assertIsNotNone(paused_frame)
         long_step = subprocess.Popen(["rosservice", "call", NODE + "/step", fitting.group(1)], stdout=subprocess.PIPE,
-                                     stderr=subprocess.STDOUT, env=master_env(master))
+                                     stderr=subprocess.STDOUT, universal_newlines=True, env=master_env(master))
         try:
             # Paused, the frame advances only through the step: it is running once the frame moves.
             self.assertTrue(wait_for(lambda: (latest_frame(master) or 0) > paused_frame, APPEAR_S),
                             "the step did not start")
             self.assertIsNone(long_step.poll(), "the step ended before the signal: too short to prove anything")
-            self.expect_clean_exit(node, master, signal.SIGINT)
+            self.expect_clean_exit(node, master, signal_number)
+            answer = long_step.communicate(timeout=TOOL_S)[0]
+            print("the step's caller got: %s" % answer.strip())
+            self.assertIn("success: False", answer)
+            self.assertIn("the node is shutting down (%s)" % signal_number.name, answer)
         finally:
             if long_step.poll() is None:
                 long_step.kill()

@@ -10,6 +10,8 @@
 #include <Eigen/Core>
 
 #include <array>
+#include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -29,6 +31,12 @@ struct OptionLimits {
   static constexpr double kMaxWindSpeed_m_per_s = 100.0;  ///< magnitude of the mean wind vector
   static constexpr double kMaxClothSide_m = 100.0;
   static constexpr double kMaxMass_kg = 1e4;
+  /// Lightest cloth, kg (1 mg: a 1 cm square of the lightest silk). The guard measures each frame's
+  /// energy against a scale made of the cloth's weight and motion, and the springs' energy is only
+  /// resolved to the rounding of the coordinates (k (eps x)^2 per spring): a cloth lighter than about
+  /// 1e-27 kg sits below that rounding, and every frame of it was rolled back (`mass: 1e-50` froze for
+  /// good). 1 mg keeps 20 orders of magnitude from there at every stiffness the options accept.
+  static constexpr double kMinMass_kg = 1e-6;
   static constexpr double kMaxCoordinate_m = 1000.0;        ///< cloth, colliders and pin motion
   static constexpr double kMaxAcceleration_m_per_s2 = 1000.0;  ///< gravity
   static constexpr double kMaxColliderSpeed_m_per_s = 100.0;  ///< peak: drift plus swing |A| 2 pi / T
@@ -45,7 +53,25 @@ struct OptionLimits {
   static constexpr double kMinSolverTolerance = 1e-14;  ///< below rounding the solve cannot converge
   static constexpr int kMaxSolverIterations = 10000;
   static constexpr int kMaxThreads = 64;
+  /// Longest text a file or parameter can set, characters (Linux's PATH_MAX): the scene name, the texture
+  /// path, each pin selector, the node's frame ids and the paths a service is given. A state file once
+  /// carried a 60 MB scene name into every diagnostics message.
+  static constexpr std::size_t kMaxTextChars = 4096;
+  /// Most pin selectors a scene may list: one per particle of the largest grid.
+  static constexpr std::size_t kMaxPinSelectors = static_cast<std::size_t>(kMaxGridSide) * kMaxGridSide;
+  /// Latest simulated time, s (31.7 years; a state file with more is refused, and a simulation stops
+  /// here): at 1e9 s a double still resolves 1.2e-7 s, so the shortest frame (1 / kMaxFrameRateHz) still
+  /// advances time by itself, to a part in 1e4. A file with time 1e300 s froze sim_time (1e300 + 0.02
+  /// is 1e300).
+  static constexpr double kMaxSimTime_s = 1e9;
+  /// Largest frame counter: as many frames as kMaxSimTime_s holds at the highest frame rate (1e12), far
+  /// below 2^64, so the counter cannot wrap.
+  static constexpr std::uint64_t kMaxFrame = static_cast<std::uint64_t>(kMaxSimTime_s * kMaxFrameRateHz);
 };
+
+/// Empty when `value` is at most OptionLimits::kMaxTextChars long; else the problem, naming `field` and
+/// the length (not the text).
+std::string textLengthProblem(const std::string& field, const std::string& value);
 
 /// The value of the `substeps` key (scene files, parameters) that asks for SceneOptions::kAutoSubsteps.
 inline constexpr const char* kAutoSubstepsName = "auto";
@@ -95,9 +121,11 @@ struct SceneOptions {
   /// the integrator's stability region (StabilityGuard).
   static constexpr int kAutoSubsteps = 0;
 
-  /// Implicit Euler with `auto` substeps (one step per frame while its solve converges): stable at every
-  /// grid size and stiffness the options accept (doc/ACCURACY.md says when an explicit method is the
-  /// better trade).
+  /// Implicit Euler with `auto` substeps (one step per frame while its solve converges): it cannot
+  /// diverge at any grid size and stiffness the options accept, though at their extremes together
+  /// (512 x 512, springs and a grasp of 1e7 N/m) its solve may stop unconverged at solver_max_iterations
+  /// and the guard reset the scene (issue 18). doc/ACCURACY.md says when an explicit method is the
+  /// better trade.
   IntegratorKind integrator = IntegratorKind::kImplicitEuler;
   int substeps = kAutoSubsteps;  ///< per frame, or kAutoSubsteps
   /// A frame the guard rejects is recomputed with 2x, 4x, 8x the substeps before it is rolled back;

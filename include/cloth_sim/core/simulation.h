@@ -51,6 +51,8 @@ struct FrameReport {
   /// implicit Euler, or reset the scene). The node reports it as an ERROR.
   std::string recovery;
   bool scene_reset = false;  ///< the recovery reset the scene (state at frame 0, time 0)
+  /// Ids of the grasps a scene reset let go (their clients must be told: recovery names them too).
+  std::vector<std::uint32_t> released_grasp_ids;
   /// The integrator's largest stable step for this scene's bound on its frequencies, s (infinite for
   /// implicit Euler) and the first computation's step divided by it: above 1 the step is past the
   /// method's stability limit, near 1 it is close to it.
@@ -155,14 +157,22 @@ class Simulation {
  private:
   /// Substeps of a frame's first computation: the fixed count, or for `auto` the count the stable step
   /// needs times the remembered scale. *warning (if given) says when explicit needs more than the cap.
-  int firstSubsteps(double stable_step_s, std::string* warning) const;
+  /// The auto scale this frame starts from: the remembered one, halved on a trial frame of a calm cloth
+  /// (GuardMemory::kScaleTrialFrames).
+  int frameAutoScale() const;
+  /// No particle faster than kCalmSpeed_m_per_s and the structural strain below kCalmStrainFraction of
+  /// kStrainWarning: a cloth at rest, not one flapping, dragged or stretched over an edge.
+  bool isCalm() const;
+  static constexpr double kCalmSpeed_m_per_s = 0.05;
+  static constexpr double kCalmStrainFraction = 0.5;
+  int firstSubsteps(double stable_step_s, int auto_scale, std::string* warning) const;
   /// The energy and strain budgets of the frame about to be computed, from the state and the inputs.
   FrameEnvelope frameEnvelope() const;
   /// Computes the frame from state_ (= frame_start_) with the guard's attempts; false (state restored)
   /// if every attempt was rejected.
   bool computeFrame(const FrameEnvelope& envelope, int first_substeps, FrameReport* report);
   /// Updates `auto`'s memory after an accepted frame.
-  void rememberFrame(const FrameReport& report, int first_substeps);
+  void rememberFrame(const FrameReport& report, int first_substeps, int auto_scale);
   /// After repeated rollbacks: implicit Euler with auto substeps, or the initial state. Always true.
   bool recover(const FrameEnvelope& envelope, FrameReport* report);
   /// Runs one frame in the given number of substeps from the current state; adds the integrator's work

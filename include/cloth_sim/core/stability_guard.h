@@ -19,6 +19,7 @@
 
 #include <Eigen/Core>
 
+#include <cstdint>
 #include <string>
 
 namespace cloth_sim::core {
@@ -90,12 +91,21 @@ FrameEnvelope frameEnvelope(const EnvelopeInputs& scene);
 /// guess. Part of a simulation's snapshot (a restored run must choose the same substeps).
 struct GuardMemory {
   /// `auto` substeps are the predicted count times this (a power of two): multiplied by what a frame
-  /// needed when the guard rejected its first computation, and kept until the options change or the
-  /// scene is reset (a cloth on a table's edge that needed two implicit steps once jitters at one).
+  /// needed when the guard rejected its first computation (a cloth on a table's edge that needed two
+  /// implicit steps once jitters at one), and halved again once the cloth no longer needs it: every
+  /// kScaleTrialFrames-th frame starts from half the scale, which is kept if the guard accepts that
+  /// frame's first computation (else the frame is recomputed at the old scale, as any rejected frame).
+  /// Reset when the options change or the scene is reset. It only ratcheted up before: after grasp jerks
+  /// a cloth at rest kept 64 substeps a frame for good (issue 18).
   int auto_scale = 1;
   int consecutive_rollbacks = 0;  ///< frames rolled back in a row (recovery starts at kRollbacksBeforeRecovery)
   /// Largest auto_scale: a frame that needs more than 64x the predicted substeps is not a prediction problem.
   static constexpr int kMaxScale = 1 << 6;
+  /// Frames (by number) on which a scale above 1 is tried at half: 16 frames, 0.32 s at 50 Hz, so the
+  /// largest scale comes back to 1 in 6 trials (about 2 s) once the cloth is calm, and a cloth that does
+  /// need the scale pays one recomputed frame in 16. By frame number, so a restored run tries the same
+  /// frames (save/restore stays bit-exact with no more memory in the file).
+  static constexpr std::uint64_t kScaleTrialFrames = 16;
   /// Frames rolled back in a row before the simulation recovers by itself (switches to implicit Euler,
   /// and resets the scene if even that cannot compute a plausible frame).
   static constexpr int kRollbacksBeforeRecovery = 3;

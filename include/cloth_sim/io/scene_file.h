@@ -4,6 +4,7 @@
 #pragma once
 
 #include "cloth_sim/core/options.h"
+#include "cloth_sim/io/texture.h"  // kMaxTextureFileBytes
 
 #include <yaml-cpp/yaml.h>
 
@@ -16,8 +17,6 @@ namespace cloth_sim::core {
 /// Largest scene file read, bytes (1 MiB: the built-in scenes are under 2 KB). A bigger file is refused
 /// before it is opened, so no request can make the node read (and quote) a huge file.
 constexpr std::uintmax_t kMaxSceneFileBytes = 1024 * 1024;
-/// Largest texture image a scene may name, bytes (16 MiB).
-constexpr std::uintmax_t kMaxTextureFileBytes = 16 * 1024 * 1024;
 
 /// Every key a scene map may hold.
 const std::vector<std::string>& sceneKeys();

@@ -15,6 +15,7 @@
 #include "cloth_sim/ros/depth_cameras.h"
 #include "cloth_sim/ros/frame_inputs.h"
 #include "cloth_sim/ros/mouse_drag.h"
+#include "cloth_sim/ros/grasp_queue.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <dynamic_reconfigure/server.h>
@@ -82,6 +83,12 @@ class ClothNode {
   static constexpr int kMaxCatchUpFrames = 5;
   /// Most frames one tick catches up under /use_sim_time; a bigger leap of /clock is not simulated.
   static constexpr int kMaxSimTimeCatchUpFrames = 500;
+  /// ~grasp messages the subscriber holds for its receiving thread. That thread only files each one into
+  /// GraspCommandQueue (microseconds), so this is reached only by a burst far beyond any hand's rate; the
+  /// last command per id survives in the GraspCommandQueue whatever the spin thread is doing.
+  static constexpr std::uint32_t kGraspSubscriberQueue = 1000;
+  /// How often the spin thread looks whether SIGINT or SIGTERM came (it answers a pending ~step first).
+  static constexpr double kSignalPoll_s = 0.05;
 
   ClothNode(const ros::NodeHandle& node_handle, const ros::NodeHandle& private_handle);
 
@@ -99,11 +106,14 @@ class ClothNode {
     std::uint32_t frames = 0;
     bool started = false;
     bool done = false;
-    std::uint64_t first_frame = 0;
+    /// Frames this job has advanced, counted as they are done: a difference of frame numbers underflowed
+    /// when ~load_state put the counter back mid-step ("stopped after 18446744073709548616 frames").
+    std::uint32_t frames_done = 0;
     std::chrono::steady_clock::time_point start_time;
     cloth_sim::Step::Response response;
   };
   class StepChunk;
+  class GraspDrain;
 
   /// Builds a validated simulation from a scene (name or path) overlaid with the node's private
   /// parameters (only at start-up: overlay_parameters).
@@ -118,7 +128,14 @@ class ClothNode {
   void reanchor();
 
   void onWind(const geometry_msgs::Vector3Stamped::ConstPtr& message);
-  void onGrasp(const cloth_sim::Grasp::ConstPtr& message);
+  /// On the grasp thread: files the command (the last per id is kept) and schedules a drain.
+  void onGraspReceived(const cloth_sim::Grasp::ConstPtr& message);
+  /// On the spin thread: applies every filed command, oldest first.
+  void applyPendingGrasps();
+  void applyGrasp(const cloth_sim::Grasp::ConstPtr& message);
+  /// On the spin thread: after SIGINT or SIGTERM, answers the ~step in progress, then asks roscpp to shut
+  /// down from the step service's thread, so that the answer is on the wire before the node leaves.
+  void onSignalPoll(const ros::WallTimerEvent& event);
   bool onReset(std_srvs::Trigger::Request& request, std_srvs::Trigger::Response& response);
   bool onPause(std_srvs::SetBool::Request& request, std_srvs::SetBool::Response& response);
   /// On the step thread: hands the request to the spin thread and waits for its answer.
@@ -161,6 +178,12 @@ class ClothNode {
   ros::ServiceServer reset_srv_, pause_srv_, step_srv_, load_scene_srv_;
   ros::ServiceServer save_state_srv_, load_state_srv_;
   ros::Timer timer_;
+  ros::WallTimer signal_timer_;
+  bool shutdown_begun_ = false;
+  /// ~grasp is received on its own queue and thread, into grasp_commands_ (see kGraspSubscriberQueue).
+  ros::CallbackQueue grasp_receive_queue_;
+  std::unique_ptr<ros::AsyncSpinner> grasp_spinner_;
+  GraspCommandQueue grasp_commands_;
   tf2_ros::TransformBroadcaster tf_broadcaster_;
   tf2_ros::StaticTransformBroadcaster static_broadcaster_;
   tf2_ros::Buffer tf_buffer_;
