@@ -26,6 +26,8 @@ void Dynamics::systemProduct(double step_s, const Eigen::Matrix3Xd& w, Eigen::Ma
   out = w * mass_kg().asDiagonal() - out;
 }
 
+bool Dynamics::systemGridMatrix(double, GridBlockMatrix&) { return false; }
+
 StepReport& StepReport::operator+=(const StepReport& other) {
   force_evaluations += other.force_evaluations;
   solver_iterations += other.solver_iterations;

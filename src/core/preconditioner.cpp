@@ -1,5 +1,7 @@
 #include "cloth_sim/core/preconditioner.h"
 
+#include "cloth_sim/core/multigrid.h"
+
 #include "parallel.h"
 
 #include <cmath>
@@ -7,7 +9,8 @@
 namespace cloth_sim::core {
 
 const std::vector<PreconditionerKind>& allPreconditionerKinds() {
-  static const std::vector<PreconditionerKind> kinds{PreconditionerKind::kBlockJacobi};
+  static const std::vector<PreconditionerKind> kinds{PreconditionerKind::kBlockJacobi,
+                                                     PreconditionerKind::kMultigrid};
   return kinds;
 }
 
@@ -15,6 +18,8 @@ const char* preconditionerName(PreconditionerKind kind) {
   switch (kind) {
     case PreconditionerKind::kBlockJacobi:
       return "block_jacobi";
+    case PreconditionerKind::kMultigrid:
+      return "multigrid";
   }
   return "unknown";
 }
@@ -89,6 +94,8 @@ std::unique_ptr<Preconditioner> makePreconditioner(PreconditionerKind kind) {
   switch (kind) {
     case PreconditionerKind::kBlockJacobi:
       return std::make_unique<BlockJacobiPreconditioner>();
+    case PreconditionerKind::kMultigrid:
+      return std::make_unique<MultigridPreconditioner>();
   }
   return nullptr;
 }

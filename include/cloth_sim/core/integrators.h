@@ -11,6 +11,8 @@
 
 namespace cloth_sim::core {
 
+class GridBlockMatrix;
+
 /// The right-hand side of the ODE x' = v, M v' = F(x, v, t), with what an implicit method needs on top:
 /// the masses, the constrained particles and the force differential. All fields are 3 x N, world frame.
 class Dynamics {
@@ -43,6 +45,10 @@ class Dynamics {
   virtual void systemProduct(double step_s, const Eigen::Matrix3Xd& w, Eigen::Matrix3Xd& out);
   /// The 3x3 diagonal blocks of that matrix, one column per particle: xx, yy, zz, xy, xz, yz.
   virtual void systemDiagonalBlocks(double step_s, Eigen::Matrix<double, 6, Eigen::Dynamic>& blocks) = 0;
+  /// The same matrix assembled on the particle grid (grid_matrix.h: a symmetric 3x3 block per particle and
+  /// neighbour offset), for multigrid; constrained particles are not filtered. False (the default): the
+  /// dynamics has no grid, and multigrid falls back to block-Jacobi.
+  virtual bool systemGridMatrix(double step_s, GridBlockMatrix& matrix);
 
   /// Threads the model's loops, and a solver's over its particles, may use.
   virtual int threads() const { return 1; }
@@ -80,11 +86,11 @@ bool parseIntegratorName(const std::string& name, IntegratorKind* kind);
 std::string integratorNameList();
 
 /// The conjugate-gradient preconditioner of implicit Euler (preconditioner.h, multigrid.h).
-enum class PreconditionerKind { kBlockJacobi };
+enum class PreconditionerKind { kBlockJacobi, kMultigrid };
 
 /// All kinds, cheapest per iteration first.
 const std::vector<PreconditionerKind>& allPreconditionerKinds();
-/// "block_jacobi": the names used in scenes and parameters (`solver_preconditioner`).
+/// "block_jacobi", "multigrid": the names used in scenes and parameters (`solver_preconditioner`).
 const char* preconditionerName(PreconditionerKind kind);
 /// Parses a name above; false if unknown.
 bool parsePreconditionerName(const std::string& name, PreconditionerKind* kind);
@@ -100,7 +106,8 @@ struct SolverOptions {
   /// Stop after this many iterations even above the tolerance; the step is still taken (reported as not
   /// converged): a truncated CG solution damps the stiff modes first, so it stays stable.
   int max_iterations = 100;
-  /// What preconditions the conjugate gradients: the 3x3 diagonal blocks.
+  /// What preconditions the conjugate gradients: the 3x3 diagonal blocks (cheap per iteration, but the
+  /// iterations grow with the grid and the stiffness) or a geometric multigrid V-cycle on the grid.
   PreconditionerKind preconditioner = PreconditionerKind::kBlockJacobi;
 };
 

@@ -1,0 +1,286 @@
+#include "cloth_sim/core/multigrid.h"
+
+#include "parallel.h"
+
+#include <algorithm>
+
+namespace cloth_sim::core {
+
+namespace {
+
+/// Sides of this many particles or fewer are not coarsened.
+constexpr int kSmallestCoarsenedSide = 3;
+
+/// Index of {dr, dc} in GridBlockMatrix::fullStencil().
+inline int fullStencilIndex(int dr, int dc) {
+  constexpr int width = 2 * GridBlockMatrix::kMaxReach + 1;
+  return (dr + GridBlockMatrix::kMaxReach) * width + dc + GridBlockMatrix::kMaxReach;
+}
+
+}  // namespace
+
+MultigridPreconditioner::Axis MultigridPreconditioner::makeAxis(int fine) {
+  Axis axis;
+  axis.fine = fine;
+  axis.coarse = fine >= kSmallestCoarsenedSide ? (fine + 1) / 2 : fine;
+  const bool coarsened = axis.coarse != fine;
+  axis.parent.resize(fine);
+  axis.parent2.assign(fine, -1);
+  axis.weight.resize(fine);
+  axis.weight2.assign(fine, 0.0);
+  for (int f = 0; f < fine; ++f) {
+    if (!coarsened || f % 2 == 0) {
+      axis.parent[f] = coarsened ? f / 2 : f;
+      axis.weight[f] = 1.0;
+    } else if ((f + 1) / 2 < axis.coarse) {  // halfway between two coarse particles
+      axis.parent[f] = (f - 1) / 2;
+      axis.weight[f] = 0.5;
+      axis.parent2[f] = (f + 1) / 2;
+      axis.weight2[f] = 0.5;
+    } else {  // an even side's last particle: only one coarse neighbour, which it follows (a free edge)
+      axis.parent[f] = (f - 1) / 2;
+      axis.weight[f] = 1.0;
+    }
+  }
+  // The transpose, coarse index by coarse index, children in increasing fine index.
+  axis.child_begin.assign(axis.coarse + 1, 0);
+  for (int f = 0; f < fine; ++f) {
+    ++axis.child_begin[axis.parent[f] + 1];
+    if (axis.parent2[f] >= 0) ++axis.child_begin[axis.parent2[f] + 1];
+  }
+  for (int j = 0; j < axis.coarse; ++j) axis.child_begin[j + 1] += axis.child_begin[j];
+  axis.child.resize(axis.child_begin.back());
+  axis.child_weight.resize(axis.child_begin.back());
+  std::vector<int> next(axis.child_begin.begin(), axis.child_begin.end() - 1);
+  for (int f = 0; f < fine; ++f) {
+    axis.child[next[axis.parent[f]]] = f;
+    axis.child_weight[next[axis.parent[f]]++] = axis.weight[f];
+    if (axis.parent2[f] >= 0) {
+      axis.child[next[axis.parent2[f]]] = f;
+      axis.child_weight[next[axis.parent2[f]]++] = axis.weight2[f];
+    }
+  }
+  return axis;
+}
+
+void MultigridPreconditioner::invertDiagonal(Level& level) const {
+  const GridBlockMatrix& a = level.matrix;
+  const int n = a.particles();
+  level.inverse_blocks.resize(6, n);
+  forEachChunk(n, threads_, [&](Eigen::Index begin, Eigen::Index end) {
+    for (Eigen::Index p = begin; p < end; ++p) {
+      double* inverse = level.inverse_blocks.col(p).data();
+      std::copy_n(a.block(static_cast<int>(p), a.diagonalIndex()), 6, inverse);
+      invertSymmetricBlock(inverse);
+      for (int e = 0; e < 6; ++e) inverse[e] *= level.free[p];
+    }
+  });
+}
+
+void MultigridPreconditioner::buildCoarse(const Level& fine, Level& coarse) const {
+  const GridBlockMatrix& a = fine.matrix;
+  const Axis& rows = fine.row_axis;
+  const Axis& cols = fine.col_axis;
+  const int fine_cols = a.cols();
+  coarse.matrix.reset(rows.coarse, cols.coarse, GridBlockMatrix::fullStencil());
+  GridBlockMatrix& c = coarse.matrix;
+  const int count = c.particles();
+  const std::vector<GridOffset>& offsets = a.offsets();
+  const int offset_count = static_cast<int>(offsets.size());
+  coarse.free.resize(count);
+  // Galerkin product P^T (S A S) P, one coarse row at a time (so each entry is summed by one thread in a
+  // fixed order): for each fine child p of coarse particle I and each fine neighbour q of p, the block
+  // A_pq goes to every coarse parent J of q with weight P_pI P_qJ (zero for constrained p or q).
+  forEachChunk(count, threads_, [&](Eigen::Index begin, Eigen::Index end) {
+    for (Eigen::Index coarse_index = begin; coarse_index < end; ++coarse_index) {
+      const int ci = static_cast<int>(coarse_index) / cols.coarse;
+      const int cj = static_cast<int>(coarse_index) % cols.coarse;
+      for (int kr = rows.child_begin[ci]; kr < rows.child_begin[ci + 1]; ++kr) {
+        const int fr = rows.child[kr];
+        for (int kc = cols.child_begin[cj]; kc < cols.child_begin[cj + 1]; ++kc) {
+          const int fc = cols.child[kc];
+          const int p = fr * fine_cols + fc;
+          const double wp = rows.child_weight[kr] * cols.child_weight[kc] * fine.free[p];
+          if (wp == 0.0) continue;
+          for (int o = 0; o < offset_count; ++o) {
+            const int qr = fr + offsets[o].dr;
+            const int qc = fc + offsets[o].dc;
+            if (qr < 0 || qr >= a.rows() || qc < 0 || qc >= fine_cols) continue;
+            if (fine.free[qr * fine_cols + qc] == 0.0) continue;
+            const double* b = a.block(p, o);
+            const int row_parents[2] = {rows.parent[qr], rows.parent2[qr]};
+            const double row_weights[2] = {rows.weight[qr], rows.weight2[qr]};
+            const int col_parents[2] = {cols.parent[qc], cols.parent2[qc]};
+            const double col_weights[2] = {cols.weight[qc], cols.weight2[qc]};
+            for (int i = 0; i < 2 && row_parents[i] >= 0; ++i) {
+              for (int j = 0; j < 2 && col_parents[j] >= 0; ++j) {
+                const double w = wp * row_weights[i] * col_weights[j];
+                double* target =
+                    c.block(static_cast<int>(coarse_index), fullStencilIndex(row_parents[i] - ci, col_parents[j] - cj));
+                for (int e = 0; e < GridBlockMatrix::kBlockEntries; ++e) target[e] += w * b[e];
+              }
+            }
+          }
+        }
+      }
+      // A coarse particle all of whose children are constrained has an empty row: it stays fixed.
+      double* diagonal = c.block(static_cast<int>(coarse_index), c.diagonalIndex());
+      const bool moves = diagonal[0] + diagonal[1] + diagonal[2] > 0.0;
+      coarse.free[coarse_index] = moves ? 1.0 : 0.0;
+      if (!moves) {
+        std::fill_n(diagonal, GridBlockMatrix::kBlockEntries, 0.0);
+        diagonal[0] = diagonal[1] = diagonal[2] = 1.0;
+      }
+    }
+  });
+  invertDiagonal(coarse);
+}
+
+void MultigridPreconditioner::setup(Dynamics& dynamics, double step_s, const Eigen::VectorXd& free) {
+  dynamics_ = &dynamics;
+  step_s_ = step_s;
+  threads_ = dynamics.threads();
+  if (levels_.empty()) levels_.resize(1);
+  if (!dynamics.systemGridMatrix(step_s, levels_[0].matrix)) {
+    levels_.clear();
+    fallback_.setup(dynamics, step_s, free);
+    return;
+  }
+  levels_[0].free = free;
+  invertDiagonal(levels_[0]);
+  std::size_t count = 1;
+  while (levels_[count - 1].matrix.particles() > kCoarsestParticles) {
+    Level& fine = levels_[count - 1];
+    fine.row_axis = makeAxis(fine.matrix.rows());
+    fine.col_axis = makeAxis(fine.matrix.cols());
+    if (fine.row_axis.coarse == fine.row_axis.fine && fine.col_axis.coarse == fine.col_axis.fine) break;
+    if (levels_.size() == count) levels_.emplace_back();
+    buildCoarse(levels_[count - 1], levels_[count]);
+    ++count;
+  }
+  levels_.resize(count);
+  for (Level& level : levels_) {
+    level.rhs.resize(3, level.matrix.particles());
+    level.solution.resize(3, level.matrix.particles());
+    level.residual.resize(3, level.matrix.particles());
+  }
+  // The coarsest level directly: its dense matrix with the fixed particles' dofs decoupled.
+  const Level& coarsest = levels_.back();
+  Eigen::MatrixXd dense = coarsest.matrix.dense();
+  for (int p = 0; p < coarsest.matrix.particles(); ++p) {
+    if (coarsest.free[p] != 0.0) continue;
+    dense.middleRows(3 * p, 3).setZero();
+    dense.middleCols(3 * p, 3).setZero();
+    dense.block<3, 3>(3 * p, 3 * p).setIdentity();
+  }
+  coarsest_.compute(dense);
+}
+
+void MultigridPreconditioner::product(int level, const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& y) {
+  if (level == 0) {
+    dynamics_->systemProduct(step_s_, x, y);  // matrix-free: cheaper than the 13-block stencil
+  } else {
+    levels_[level].matrix.multiply(x, y, threads_);
+  }
+}
+
+void MultigridPreconditioner::smooth(int level, bool from_zero) {
+  Level& l = levels_[level];
+  const Eigen::Index n = l.matrix.particles();
+  int sweeps = kSmoothingSweeps;
+  if (from_zero) {
+    forEachChunk(n, threads_, [&](Eigen::Index begin, Eigen::Index end) {
+      for (Eigen::Index p = begin; p < end; ++p) {
+        double* x = l.solution.col(p).data();
+        x[0] = x[1] = x[2] = 0.0;
+        addSymmetricBlockProduct(l.inverse_blocks.col(p).data(), kSmootherWeight, l.rhs.col(p).data(), x);
+      }
+    });
+    --sweeps;
+  }
+  for (int s = 0; s < sweeps; ++s) {
+    product(level, l.solution, l.residual);
+    forEachChunk(n, threads_, [&](Eigen::Index begin, Eigen::Index end) {
+      for (Eigen::Index p = begin; p < end; ++p) {
+        const Eigen::Vector3d r = l.rhs.col(p) - l.residual.col(p);
+        addSymmetricBlockProduct(l.inverse_blocks.col(p).data(), kSmootherWeight, r.data(), l.solution.col(p).data());
+      }
+    });
+  }
+}
+
+void MultigridPreconditioner::restrictResidual(int level) {
+  Level& fine = levels_[level];
+  Level& coarse = levels_[level + 1];
+  product(level, fine.solution, fine.residual);
+  fine.residual = fine.rhs - fine.residual;
+  const Axis& rows = fine.row_axis;
+  const Axis& cols = fine.col_axis;
+  const int fine_cols = fine.matrix.cols();
+  forEachChunk(coarse.matrix.particles(), threads_, [&](Eigen::Index begin, Eigen::Index end) {
+    for (Eigen::Index j = begin; j < end; ++j) {
+      const int ci = static_cast<int>(j) / cols.coarse;
+      const int cj = static_cast<int>(j) % cols.coarse;
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      for (int kr = rows.child_begin[ci]; kr < rows.child_begin[ci + 1]; ++kr) {
+        for (int kc = cols.child_begin[cj]; kc < cols.child_begin[cj + 1]; ++kc) {
+          const int p = rows.child[kr] * fine_cols + cols.child[kc];
+          sum += (rows.child_weight[kr] * cols.child_weight[kc] * fine.free[p]) * fine.residual.col(p);
+        }
+      }
+      coarse.rhs.col(j) = coarse.free[j] * sum;
+    }
+  });
+}
+
+void MultigridPreconditioner::prolongateAdd(int level) {
+  Level& fine = levels_[level];
+  const Level& coarse = levels_[level + 1];
+  const Axis& rows = fine.row_axis;
+  const Axis& cols = fine.col_axis;
+  const int fine_cols = fine.matrix.cols();
+  forEachChunk(fine.matrix.particles(), threads_, [&](Eigen::Index begin, Eigen::Index end) {
+    for (Eigen::Index p = begin; p < end; ++p) {
+      if (fine.free[p] == 0.0) continue;
+      const int fr = static_cast<int>(p) / fine_cols;
+      const int fc = static_cast<int>(p) % fine_cols;
+      const int row_parents[2] = {rows.parent[fr], rows.parent2[fr]};
+      const double row_weights[2] = {rows.weight[fr], rows.weight2[fr]};
+      const int col_parents[2] = {cols.parent[fc], cols.parent2[fc]};
+      const double col_weights[2] = {cols.weight[fc], cols.weight2[fc]};
+      for (int i = 0; i < 2 && row_parents[i] >= 0; ++i) {
+        for (int j = 0; j < 2 && col_parents[j] >= 0; ++j) {
+          fine.solution.col(p) +=
+              (row_weights[i] * col_weights[j]) * coarse.solution.col(row_parents[i] * cols.coarse + col_parents[j]);
+        }
+      }
+    }
+  });
+}
+
+void MultigridPreconditioner::cycle(int level) {
+  Level& l = levels_[level];
+  if (level + 1 == static_cast<int>(levels_.size())) {
+    coarsest_rhs_ = Eigen::Map<const Eigen::VectorXd>(l.rhs.data(), l.rhs.size());
+    Eigen::Map<Eigen::VectorXd>(l.solution.data(), l.solution.size()) = coarsest_.solve(coarsest_rhs_);
+    l.solution = l.solution * l.free.asDiagonal();
+    return;
+  }
+  smooth(level, true);
+  restrictResidual(level);
+  cycle(level + 1);
+  prolongateAdd(level);
+  smooth(level, false);
+}
+
+void MultigridPreconditioner::apply(const Eigen::Matrix3Xd& r, Eigen::Matrix3Xd& z) {
+  if (levels_.empty()) {
+    fallback_.apply(r, z);
+    return;
+  }
+  levels_[0].rhs = r * levels_[0].free.asDiagonal();
+  cycle(0);
+  z = levels_[0].solution;
+}
+
+}  // namespace cloth_sim::core
