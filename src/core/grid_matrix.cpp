@@ -31,16 +31,26 @@ int GridBlockMatrix::offsetIndex(int dr, int dc) const {
 void GridBlockMatrix::multiplyRange(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& y, Eigen::Index begin,
                                     Eigen::Index end) const {
   const int offsets = static_cast<int>(offsets_.size());
+  // Index distance of each offset, for particles whose whole stencil is on the grid.
+  std::ptrdiff_t step[32];
+  const bool stepped = offsets <= 32;
+  for (int o = 0; stepped && o < offsets; ++o) step[o] = static_cast<std::ptrdiff_t>(offsets_[o].dr) * cols_ + offsets_[o].dc;
+  const double* xs = x.data();
   for (Eigen::Index p = begin; p < end; ++p) {
     const int r = static_cast<int>(p / cols_);
     const int c = static_cast<int>(p % cols_);
     double sum[3] = {0.0, 0.0, 0.0};
     const double* b = block(static_cast<int>(p), 0);
-    for (int o = 0; o < offsets; ++o, b += kBlockEntries) {
-      const int qr = r + offsets_[o].dr;
-      const int qc = c + offsets_[o].dc;
-      if (qr < 0 || qr >= rows_ || qc < 0 || qc >= cols_) continue;
-      addSymmetricBlockProduct(b, 1.0, x.col(static_cast<Eigen::Index>(qr) * cols_ + qc).data(), sum);
+    const bool inside = stepped && r >= kMaxReach && r < rows_ - kMaxReach && c >= kMaxReach && c < cols_ - kMaxReach;
+    if (inside) {
+      for (int o = 0; o < offsets; ++o, b += kBlockEntries) addSymmetricBlockProduct(b, 1.0, xs + 3 * (p + step[o]), sum);
+    } else {
+      for (int o = 0; o < offsets; ++o, b += kBlockEntries) {
+        const int qr = r + offsets_[o].dr;
+        const int qc = c + offsets_[o].dc;
+        if (qr < 0 || qr >= rows_ || qc < 0 || qc >= cols_) continue;
+        addSymmetricBlockProduct(b, 1.0, x.col(static_cast<Eigen::Index>(qr) * cols_ + qc).data(), sum);
+      }
     }
     y(0, p) = sum[0];
     y(1, p) = sum[1];

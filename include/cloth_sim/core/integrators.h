@@ -108,7 +108,7 @@ struct SolverOptions {
   int max_iterations = 100;
   /// What preconditions the conjugate gradients: the 3x3 diagonal blocks (cheap per iteration, but the
   /// iterations grow with the grid and the stiffness) or a geometric multigrid V-cycle on the grid.
-  PreconditionerKind preconditioner = PreconditionerKind::kBlockJacobi;
+  PreconditionerKind preconditioner = PreconditionerKind::kMultigrid;
 };
 
 /// Advances positions, velocities and time by one step h. Holds its own scratch, so one instance per

@@ -32,7 +32,7 @@ class MultigridPreconditioner final : public Preconditioner {
   static constexpr int kCoarsestParticles = 64;
   /// Weighted-Jacobi sweeps before and after each coarse correction, and their weight.
   static constexpr int kSmoothingSweeps = 2;
-  static constexpr double kSmootherWeight = 0.6;
+  static constexpr double kSmootherWeight = 0.7;
 
   PreconditionerKind kind() const override { return PreconditionerKind::kMultigrid; }
   /// Falls back to block-Jacobi when the dynamics has no grid (Dynamics::systemGridMatrix says false).
