@@ -3,6 +3,7 @@
 #include "parallel.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace cloth_sim::core {
 
@@ -17,7 +18,140 @@ inline int fullStencilIndex(int dr, int dc) {
   return (dr + GridBlockMatrix::kMaxReach) * width + dc + GridBlockMatrix::kMaxReach;
 }
 
+/// Half-bandwidth, in dofs, of one line's own couplings: a particle reaches kMaxReach particles along it.
+constexpr int kLineBand = 3 * GridBlockMatrix::kMaxReach + 2;
+constexpr int kBandWidth = kLineBand + 1;
+
+/// Entry (a, b) of a symmetric block stored as xx, yy, zz, xy, xz, yz.
+inline double blockEntry(const double* block, int a, int b) {
+  static constexpr int kIndex[3][3] = {{0, 3, 4}, {3, 1, 5}, {4, 5, 2}};
+  return block[kIndex[a][b]];
+}
+
+/// In place: band[i * kBandWidth + k] = A(i, i - k) becomes the Cholesky factor's L(i, i - k), except on
+/// the diagonal, which holds 1 / L(i, i) (the solves then multiply: a division's latency sits on their
+/// critical path).
+void bandedCholesky(int dofs, double* band) {
+  for (int j = 0; j < dofs; ++j) {
+    double* row_j = band + static_cast<std::ptrdiff_t>(j) * kBandWidth;
+    double diagonal = row_j[0];
+    for (int k = 1; k <= kLineBand && k <= j; ++k) diagonal -= row_j[k] * row_j[k];
+    // Positive for a positive definite line (every line of M + PSD terms is); guarded against rounding.
+    const double inverse = diagonal > 0.0 ? 1.0 / std::sqrt(diagonal) : 1.0;
+    row_j[0] = inverse;
+    for (int i = j + 1; i <= j + kLineBand && i < dofs; ++i) {
+      double* row_i = band + static_cast<std::ptrdiff_t>(i) * kBandWidth;
+      double value = row_i[i - j];
+      for (int k = i - kLineBand > 0 ? i - kLineBand : 0; k < j; ++k) value -= row_i[i - k] * row_j[j - k];
+      row_i[i - j] = value * inverse;
+    }
+  }
+}
+
+/// The sum of row[k] * v[-k] over k = 2..kLineBand as a tree: none of it waits for v[-1], which the
+/// previous dof has just computed, so only one product and two subtractions per dof stay on the solve's
+/// critical path (a left-to-right sum put all eight there). A fixed order: the same bits every time.
+static_assert(kLineBand == 8, "farSum is written out for a band of 8");
+inline double farSum(const double* row, const double* v, int step) {
+  return ((row[8] * v[-8 * step] + row[7] * v[-7 * step]) + (row[6] * v[-6 * step] + row[5] * v[-5 * step])) +
+         ((row[4] * v[-4 * step] + row[3] * v[-3 * step]) + row[2] * v[-2 * step]);
+}
+
+/// Solves L L^T y = v in place.
+void bandedSolve(int dofs, const double* band, double* v) {
+  for (int i = 0; i < dofs; ++i) {
+    const double* row = band + static_cast<std::ptrdiff_t>(i) * kBandWidth;
+    if (i >= kLineBand) {
+      v[i] = (v[i] - farSum(row, v + i, 1) - row[1] * v[i - 1]) * row[0];
+      continue;
+    }
+    double value = v[i];
+    for (int k = i; k >= 1; --k) value -= row[k] * v[i - k];
+    v[i] = value * row[0];
+  }
+  // L^T: row i of L^T holds L(i + k, i), column k of band row i + k.
+  double column[kBandWidth];
+  for (int i = dofs - 1; i >= 0; --i) {
+    const int reach = dofs - 1 - i < kLineBand ? dofs - 1 - i : kLineBand;
+    if (reach == kLineBand) {
+      for (int k = 1; k <= kLineBand; ++k) column[k] = band[static_cast<std::ptrdiff_t>(i + k) * kBandWidth + k];
+      // farSum reads row[k] * v[-k * step]: with step -1 it reads v[i + k].
+      v[i] = (v[i] - farSum(column, v + i, -1) - column[1] * v[i + 1]) * band[static_cast<std::ptrdiff_t>(i) * kBandWidth];
+      continue;
+    }
+    double value = v[i];
+    for (int k = reach; k >= 1; --k) value -= band[static_cast<std::ptrdiff_t>(i + k) * kBandWidth + k] * v[i + k];
+    v[i] = value * band[static_cast<std::ptrdiff_t>(i) * kBandWidth];
+  }
+}
+
 }  // namespace
+
+void MultigridPreconditioner::factorLines(Level& level, bool rows) const {
+  const GridBlockMatrix& a = level.matrix;
+  const int lines = rows ? a.rows() : a.cols();
+  const int length = rows ? a.cols() : a.rows();
+  const int dofs = 3 * length;
+  std::vector<double>& factors = rows ? level.row_factors : level.col_factors;
+  factors.assign(static_cast<std::size_t>(lines) * dofs * kBandWidth, 0.0);
+  int along[GridBlockMatrix::kMaxReach + 1];
+  for (int d = 0; d <= GridBlockMatrix::kMaxReach; ++d) along[d] = rows ? a.offsetIndex(0, -d) : a.offsetIndex(-d, 0);
+  const int n = a.particles();
+#pragma omp parallel for schedule(static) num_threads(threads_) if (runsInParallel(n, threads_))
+  for (int line = 0; line < lines; ++line) {
+    double* band = factors.data() + static_cast<std::ptrdiff_t>(line) * dofs * kBandWidth;
+    for (int t = 0; t < length; ++t) {
+      const int p = rows ? line * a.cols() + t : t * a.cols() + line;
+      const bool p_free = level.free[p] != 0.0;
+      for (int d = 0; d <= GridBlockMatrix::kMaxReach && d <= t; ++d) {
+        if (along[d] < 0) continue;
+        const int q = rows ? p - d : p - d * a.cols();
+        const bool coupled = p_free && level.free[q] != 0.0;
+        const double* block = a.block(p, along[d]);
+        for (int i = 0; i < 3; ++i) {
+          for (int j = 0; j < 3; ++j) {
+            const int k = 3 * d + i - j;  // A(3t + i, 3(t - d) + j) sits k below the diagonal
+            if (k < 0) continue;
+            double value = coupled ? blockEntry(block, i, j) : 0.0;
+            if (!p_free && d == 0) value = i == j ? 1.0 : 0.0;  // a fixed dof: decoupled, identity
+            band[static_cast<std::ptrdiff_t>(3 * t + i) * kBandWidth + k] = value;
+          }
+        }
+      }
+    }
+    bandedCholesky(dofs, band);
+  }
+}
+
+void MultigridPreconditioner::smoothLines(int level, bool rows, bool from_zero) {
+  Level& l = levels_[level];
+  const GridBlockMatrix& a = l.matrix;
+  const int lines = rows ? a.rows() : a.cols();
+  const int length = rows ? a.cols() : a.rows();
+  const int dofs = 3 * length;
+  const int n = a.particles();
+  if (from_zero) {
+    l.solution.setZero();
+    l.residual.setZero();  // A 0: the residual is the right-hand side
+  } else {
+    product(level, l.solution, l.residual);
+  }
+  const std::vector<double>& factors = rows ? l.row_factors : l.col_factors;
+  l.line_scratch.resize(3, n);
+#pragma omp parallel for schedule(static) num_threads(threads_) if (runsInParallel(n, threads_))
+  for (int line = 0; line < lines; ++line) {
+    double* v = l.line_scratch.data() + static_cast<std::ptrdiff_t>(line) * dofs;
+    for (int t = 0; t < length; ++t) {
+      const int p = rows ? line * a.cols() + t : t * a.cols() + line;
+      for (int i = 0; i < 3; ++i) v[3 * t + i] = l.free[p] * (l.rhs(i, p) - l.residual(i, p));
+    }
+    bandedSolve(dofs, factors.data() + static_cast<std::ptrdiff_t>(line) * dofs * kBandWidth, v);
+    for (int t = 0; t < length; ++t) {
+      const int p = rows ? line * a.cols() + t : t * a.cols() + line;
+      for (int i = 0; i < 3; ++i) l.solution(i, p) += kLineSmootherWeight * l.free[p] * v[3 * t + i];
+    }
+  }
+}
 
 MultigridPreconditioner::Axis MultigridPreconditioner::makeAxis(int fine) {
   Axis axis;
@@ -159,6 +293,10 @@ void MultigridPreconditioner::setup(Dynamics& dynamics, double step_s, const Eig
     ++count;
   }
   levels_.resize(count);
+  for (std::size_t l = 0; kLineSmoothing && l + 1 < count; ++l) {
+    factorLines(levels_[l], true);
+    factorLines(levels_[l], false);
+  }
   for (Level& level : levels_) {
     level.rhs.resize(3, level.matrix.particles());
     level.solution.resize(3, level.matrix.particles());
@@ -266,11 +404,26 @@ void MultigridPreconditioner::cycle(int level) {
     l.solution = l.solution * l.free.asDiagonal();
     return;
   }
-  smooth(level, true);
+  if (kLineSmoothing) {
+    // Rows then columns before, columns then rows after: the cycle stays symmetric.
+    for (int s = 0; s < kSmoothingSweeps; ++s) {
+      smoothLines(level, true, s == 0);
+      smoothLines(level, false, false);
+    }
+  } else {
+    smooth(level, true);
+  }
   restrictResidual(level);
   cycle(level + 1);
   prolongateAdd(level);
-  smooth(level, false);
+  if (kLineSmoothing) {
+    for (int s = 0; s < kSmoothingSweeps; ++s) {
+      smoothLines(level, false, false);
+      smoothLines(level, true, false);
+    }
+  } else {
+    smooth(level, false);
+  }
 }
 
 void MultigridPreconditioner::apply(const Eigen::Matrix3Xd& r, Eigen::Matrix3Xd& z) {

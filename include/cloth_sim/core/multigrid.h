@@ -31,8 +31,12 @@ class MultigridPreconditioner final : public Preconditioner {
   /// The coarsest level has at most this many particles; solved directly (a 3n x 3n Cholesky factor).
   static constexpr int kCoarsestParticles = 64;
   /// Weighted-Jacobi sweeps before and after each coarse correction, and their weight.
-  static constexpr int kSmoothingSweeps = 2;
+  static constexpr int kSmoothingSweeps = 1;
   static constexpr double kSmootherWeight = 0.7;
+  /// Line smoothing: each sweep solves every grid row, then every column, exactly for its own couplings
+  /// (a banded Cholesky per line), which handles the anisotropy of stiff structural springs.
+  static constexpr bool kLineSmoothing = true;
+  static constexpr double kLineSmootherWeight = 0.7;
 
   PreconditionerKind kind() const override { return PreconditionerKind::kMultigrid; }
   /// Falls back to block-Jacobi when the dynamics has no grid (Dynamics::systemGridMatrix says false).
@@ -62,6 +66,10 @@ class MultigridPreconditioner final : public Preconditioner {
     Eigen::VectorXd free;                                     ///< 1 for a dof that may move, else 0
     Axis row_axis, col_axis;                                  ///< transfer to the next coarser level
     Eigen::Matrix3Xd rhs, solution, residual;
+    /// Banded Cholesky factors of every row's and every column's own couplings, line after line
+    /// (kLineSmoothing), and a scratch field in line order.
+    std::vector<double> row_factors, col_factors;
+    Eigen::Matrix3Xd line_scratch;
   };
 
   static Axis makeAxis(int fine);
@@ -73,6 +81,10 @@ class MultigridPreconditioner final : public Preconditioner {
   void restrictResidual(int level);
   void prolongateAdd(int level);
   void cycle(int level);
+  void factorLines(Level& level, bool rows) const;
+  /// x += weight L^-1 (b - A x), L the lines' own couplings (rows or columns).
+  /// from_zero: x starts at 0 (no product needed).
+  void smoothLines(int level, bool rows, bool from_zero);
 
   Dynamics* dynamics_ = nullptr;
   double step_s_ = 0.0;
