@@ -32,18 +32,26 @@ inline double blockEntry(const double* block, int a, int b) {
 /// the diagonal, which holds 1 / L(i, i) (the solves then multiply: a division's latency sits on their
 /// critical path).
 void bandedCholesky(int dofs, double* band) {
+  // Right-looking: once column j is final it updates the band below it. Every update of one column is
+  // independent of the others, so none waits for the previous one (a left-looking dot product put a
+  // chain of eight dependent subtractions on every entry).
   for (int j = 0; j < dofs; ++j) {
     double* row_j = band + static_cast<std::ptrdiff_t>(j) * kBandWidth;
-    double diagonal = row_j[0];
-    for (int k = 1; k <= kLineBand && k <= j; ++k) diagonal -= row_j[k] * row_j[k];
+    const double diagonal = row_j[0];
     // Positive for a positive definite line (every line of M + PSD terms is); guarded against rounding.
     const double inverse = diagonal > 0.0 ? 1.0 / std::sqrt(diagonal) : 1.0;
     row_j[0] = inverse;
-    for (int i = j + 1; i <= j + kLineBand && i < dofs; ++i) {
+    const int last = j + kLineBand < dofs ? j + kLineBand : dofs - 1;
+    double column[kBandWidth];
+    for (int i = j + 1; i <= last; ++i) {
+      double* entry = band + static_cast<std::ptrdiff_t>(i) * kBandWidth + (i - j);
+      *entry *= inverse;
+      column[i - j] = *entry;
+    }
+    for (int i = j + 1; i <= last; ++i) {
       double* row_i = band + static_cast<std::ptrdiff_t>(i) * kBandWidth;
-      double value = row_i[i - j];
-      for (int k = i - kLineBand > 0 ? i - kLineBand : 0; k < j; ++k) value -= row_i[i - k] * row_j[j - k];
-      row_i[i - j] = value * inverse;
+      const double l_ij = column[i - j];
+      for (int m = j + 1; m <= i; ++m) row_i[i - m] -= l_ij * column[m - j];  // A(i, m) -= L(i, j) L(m, j)
     }
   }
 }
@@ -197,20 +205,6 @@ MultigridPreconditioner::Axis MultigridPreconditioner::makeAxis(int fine) {
   return axis;
 }
 
-void MultigridPreconditioner::invertDiagonal(Level& level) const {
-  const GridBlockMatrix& a = level.matrix;
-  const int n = a.particles();
-  level.inverse_blocks.resize(6, n);
-  forEachChunk(n, threads_, [&](Eigen::Index begin, Eigen::Index end) {
-    for (Eigen::Index p = begin; p < end; ++p) {
-      double* inverse = level.inverse_blocks.col(p).data();
-      std::copy_n(a.block(static_cast<int>(p), a.diagonalIndex()), 6, inverse);
-      invertSymmetricBlock(inverse);
-      for (int e = 0; e < 6; ++e) inverse[e] *= level.free[p];
-    }
-  });
-}
-
 void MultigridPreconditioner::buildCoarse(const Level& fine, Level& coarse) const {
   const GridBlockMatrix& a = fine.matrix;
   const Axis& rows = fine.row_axis;
@@ -267,7 +261,6 @@ void MultigridPreconditioner::buildCoarse(const Level& fine, Level& coarse) cons
       }
     }
   });
-  invertDiagonal(coarse);
 }
 
 void MultigridPreconditioner::setup(Dynamics& dynamics, double step_s, const Eigen::VectorXd& free) {
@@ -281,7 +274,6 @@ void MultigridPreconditioner::setup(Dynamics& dynamics, double step_s, const Eig
     return;
   }
   levels_[0].free = free;
-  invertDiagonal(levels_[0]);
   std::size_t count = 1;
   while (levels_[count - 1].matrix.particles() > kCoarsestParticles) {
     Level& fine = levels_[count - 1];
@@ -293,7 +285,7 @@ void MultigridPreconditioner::setup(Dynamics& dynamics, double step_s, const Eig
     ++count;
   }
   levels_.resize(count);
-  for (std::size_t l = 0; kLineSmoothing && l + 1 < count; ++l) {
+  for (std::size_t l = 0; l + 1 < count; ++l) {
     factorLines(levels_[l], true);
     factorLines(levels_[l], false);
   }
@@ -319,31 +311,6 @@ void MultigridPreconditioner::product(int level, const Eigen::Matrix3Xd& x, Eige
     dynamics_->systemProduct(step_s_, x, y);  // matrix-free: cheaper than the 13-block stencil
   } else {
     levels_[level].matrix.multiply(x, y, threads_);
-  }
-}
-
-void MultigridPreconditioner::smooth(int level, bool from_zero) {
-  Level& l = levels_[level];
-  const Eigen::Index n = l.matrix.particles();
-  int sweeps = kSmoothingSweeps;
-  if (from_zero) {
-    forEachChunk(n, threads_, [&](Eigen::Index begin, Eigen::Index end) {
-      for (Eigen::Index p = begin; p < end; ++p) {
-        double* x = l.solution.col(p).data();
-        x[0] = x[1] = x[2] = 0.0;
-        addSymmetricBlockProduct(l.inverse_blocks.col(p).data(), kSmootherWeight, l.rhs.col(p).data(), x);
-      }
-    });
-    --sweeps;
-  }
-  for (int s = 0; s < sweeps; ++s) {
-    product(level, l.solution, l.residual);
-    forEachChunk(n, threads_, [&](Eigen::Index begin, Eigen::Index end) {
-      for (Eigen::Index p = begin; p < end; ++p) {
-        const Eigen::Vector3d r = l.rhs.col(p) - l.residual.col(p);
-        addSymmetricBlockProduct(l.inverse_blocks.col(p).data(), kSmootherWeight, r.data(), l.solution.col(p).data());
-      }
-    });
   }
 }
 
@@ -404,25 +371,17 @@ void MultigridPreconditioner::cycle(int level) {
     l.solution = l.solution * l.free.asDiagonal();
     return;
   }
-  if (kLineSmoothing) {
-    // Rows then columns before, columns then rows after: the cycle stays symmetric.
-    for (int s = 0; s < kSmoothingSweeps; ++s) {
-      smoothLines(level, true, s == 0);
-      smoothLines(level, false, false);
-    }
-  } else {
-    smooth(level, true);
+  // Rows then columns before, columns then rows after: the cycle stays symmetric.
+  for (int s = 0; s < kSmoothingSweeps; ++s) {
+    smoothLines(level, true, s == 0);
+    smoothLines(level, false, false);
   }
   restrictResidual(level);
   cycle(level + 1);
   prolongateAdd(level);
-  if (kLineSmoothing) {
-    for (int s = 0; s < kSmoothingSweeps; ++s) {
-      smoothLines(level, false, false);
-      smoothLines(level, true, false);
-    }
-  } else {
-    smooth(level, false);
+  for (int s = 0; s < kSmoothingSweeps; ++s) {
+    smoothLines(level, false, false);
+    smoothLines(level, true, false);
   }
 }
 

@@ -220,12 +220,10 @@ IterationRange iterationsReleasedFlat(int side, double structural_N_per_m, Preco
 }
 
 TEST(MultigridSolve, IterationsStayBoundedAcrossGridSizesAndStiffnesses) {
-  // The same cloth from 16x16 to 96x96 and from 1e3 to 1e5 N/m: block-Jacobi's iterations grow about
-  // 20x over this sweep (doc/BENCHMARKS.md); multigrid's do not grow with the grid, and grow about 3x
-  // with the stiffness (the stiff structural springs against soft shear make the system anisotropic,
-  // which a point smoother handles less well: doc/PHYSICS.md).
+  // The same cloth from 16x16 to 96x96 and from 1e3 to 1e5 N/m: block-Jacobi's iterations grow with
+  // both (doc/BENCHMARKS.md); multigrid's stay within 2x of each other (the target).
   constexpr int kFrames = 6;
-  constexpr int kMostIterations = 20;
+  constexpr int kMostIterations = 8;
   double most_mean = 0.0, least_mean = 1e30;
   for (int side : {16, 33, 64, 96}) {
     for (double stiffness : {1e3, 1e4, 1e5}) {
@@ -235,7 +233,8 @@ TEST(MultigridSolve, IterationsStayBoundedAcrossGridSizesAndStiffnesses) {
       least_mean = std::min(least_mean, range.mean);
     }
   }
-  EXPECT_LE(most_mean, 4.0 * least_mean) << "mean iterations per step, largest against smallest";
+  EXPECT_LE(most_mean, 2.0 * least_mean) << "mean iterations per step, largest against smallest: " << most_mean
+                                         << " against " << least_mean;
   // And block-Jacobi, on the largest and stiffest of them, needs several times more: the sweep measures.
   const IterationRange jacobi = iterationsReleasedFlat(64, 1e5, PreconditionerKind::kBlockJacobi, 2);
   EXPECT_GT(jacobi.most, 3 * kMostIterations);

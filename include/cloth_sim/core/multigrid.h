@@ -8,9 +8,12 @@
 //    and McCormick's (2015) constraint filter: P's rows for constrained particles are zero, so no coarse
 //    correction moves a pin, a hook or a grasped pin, and the coarse operators are Galerkin products
 //    P^T S A S P (S the free mask) that know it.
-//  - Smoother: weighted block-Jacobi (the 3x3 blocks inverted), the same sweeps before and after the
-//    coarse correction, so the cycle is symmetric positive definite, as CG needs; each particle's update
-//    reads only the previous sweep, so results do not depend on the thread count.
+//  - Smoother: weighted line Jacobi, alternating: every grid row solved exactly for its own couplings
+//    (a banded Cholesky factor per line), then every column; columns then rows after the coarse
+//    correction, so the cycle is symmetric positive definite, as CG needs. Stiff structural springs
+//    against soft shear make each displacement component strongly coupled along one grid direction: a
+//    point smoother damped that poorly (iterations grew with the stiffness), a line smoother does not.
+//    Each line reads only the previous sweep, so results do not depend on the thread count.
 //  - Coarsest level: a dense Cholesky factorisation.
 // The finest level's products go through Dynamics::systemProduct (matrix-free); the coarse operators are
 // GridBlockMatrix stencils. Everything is rebuilt in setup(), so nothing carries over between steps.
@@ -30,12 +33,9 @@ class MultigridPreconditioner final : public Preconditioner {
  public:
   /// The coarsest level has at most this many particles; solved directly (a 3n x 3n Cholesky factor).
   static constexpr int kCoarsestParticles = 64;
-  /// Weighted-Jacobi sweeps before and after each coarse correction, and their weight.
+  /// Line-smoothing sweeps before and after each coarse correction, and their weight: a sweep solves
+  /// every grid row, then every column, exactly for its own couplings (a banded Cholesky per line).
   static constexpr int kSmoothingSweeps = 1;
-  static constexpr double kSmootherWeight = 0.7;
-  /// Line smoothing: each sweep solves every grid row, then every column, exactly for its own couplings
-  /// (a banded Cholesky per line), which handles the anisotropy of stiff structural springs.
-  static constexpr bool kLineSmoothing = true;
   static constexpr double kLineSmootherWeight = 0.7;
 
   PreconditionerKind kind() const override { return PreconditionerKind::kMultigrid; }
@@ -62,22 +62,18 @@ class MultigridPreconditioner final : public Preconditioner {
   };
   struct Level {
     GridBlockMatrix matrix;                                   ///< the operator (level 0: S A S's blocks)
-    Eigen::Matrix<double, 6, Eigen::Dynamic> inverse_blocks;  ///< smoother: inverted diagonal, 0 if fixed
     Eigen::VectorXd free;                                     ///< 1 for a dof that may move, else 0
     Axis row_axis, col_axis;                                  ///< transfer to the next coarser level
     Eigen::Matrix3Xd rhs, solution, residual;
     /// Banded Cholesky factors of every row's and every column's own couplings, line after line
-    /// (kLineSmoothing), and a scratch field in line order.
+    /// (the line smoother), and a scratch field in line order.
     std::vector<double> row_factors, col_factors;
     Eigen::Matrix3Xd line_scratch;
   };
 
   static Axis makeAxis(int fine);
   void buildCoarse(const Level& fine, Level& coarse) const;
-  void invertDiagonal(Level& level) const;
   void product(int level, const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& y);
-  /// x += weight D^-1 (b - A x) sweeps; `from_zero`: x starts at 0 (the first sweep needs no product).
-  void smooth(int level, bool from_zero);
   void restrictResidual(int level);
   void prolongateAdd(int level);
   void cycle(int level);
