@@ -29,7 +29,7 @@ FABRIC_STRAIN_BOUND = 0.01
 OUR_INTEGRATOR = "implicit_euler"
 OUR_SUBSTEPS = 1
 # Conjugate-gradient iterations per step at most (solver_max_iterations). With the multigrid preconditioner (the
-# default) a solve converges to the default tolerance in 3 to 8 iterations at every size here, so ours run
+# default) a solve converges to the default tolerance in about 3 to 6 iterations at every size here, so ours run
 # converged: the default cap (100) stays, as a safety net that no run reaches. (With block-Jacobi this search
 # used caps 10, 20, 50, 100, 200, cheap first; a capped solve is a different, over-stretched cloth in motion.)
 OUR_SOLVER_CAPS = (100,)
