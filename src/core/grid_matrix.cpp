@@ -32,8 +32,9 @@ void GridBlockMatrix::multiplyRange(const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd&
                                     Eigen::Index end) const {
   const int offsets = static_cast<int>(offsets_.size());
   // Index distance of each offset, for particles whose whole stencil is on the grid.
-  std::ptrdiff_t step[32];
-  const bool stepped = offsets <= 32;
+  constexpr int kMostOffsets = (2 * kMaxReach + 1) * (2 * kMaxReach + 1);
+  std::ptrdiff_t step[kMostOffsets];
+  const bool stepped = offsets <= kMostOffsets;
   for (int o = 0; stepped && o < offsets; ++o) step[o] = static_cast<std::ptrdiff_t>(offsets_[o].dr) * cols_ + offsets_[o].dc;
   const double* xs = x.data();
   for (Eigen::Index p = begin; p < end; ++p) {

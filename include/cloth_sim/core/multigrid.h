@@ -14,7 +14,7 @@
 //    against soft shear make each displacement component strongly coupled along one grid direction: a
 //    point smoother damped that poorly (iterations grew with the stiffness), a line smoother does not.
 //    Each line reads only the previous sweep, so results do not depend on the thread count.
-//  - Coarsest level: a dense Cholesky factorisation.
+//  - Coarsest level: a dense LDLT factorisation.
 // The finest level's products go through Dynamics::systemProduct (matrix-free); the coarse operators are
 // GridBlockMatrix stencils. Everything is rebuilt in setup(), so nothing carries over between steps.
 #pragma once
@@ -31,7 +31,7 @@ namespace cloth_sim::core {
 
 class MultigridPreconditioner final : public Preconditioner {
  public:
-  /// The coarsest level has at most this many particles; solved directly (a 3n x 3n Cholesky factor).
+  /// The coarsest level has at most this many particles; solved directly (a 3n x 3n LDLT factor).
   static constexpr int kCoarsestParticles = 64;
   /// Line-smoothing sweeps before and after each coarse correction, and their weight: a sweep solves
   /// every grid row, then every column, exactly for its own couplings (a banded Cholesky per line).
