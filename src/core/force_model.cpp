@@ -230,4 +230,52 @@ void ClothForceModel::systemDiagonalBlocks(double step_s, Eigen::Matrix<double, 
   }
 }
 
+bool ClothForceModel::systemGridMatrix(double step_s, GridBlockMatrix& matrix) {
+  const double h = step_s;
+  const int rows = grid_.rows;
+  const int cols = grid_.cols;
+  const int count = grid_.particleCount();
+  std::vector<GridOffset> offsets{{0, 0}};
+  for (const StencilFamilyLayout& layout : kStencilFamilies) {
+    offsets.push_back({layout.dr, layout.dc});
+    offsets.push_back({-layout.dr, -layout.dc});
+  }
+  matrix.reset(rows, cols, offsets);
+  systemDiagonalBlocks(h, diagonal_blocks_);
+  const int diagonal = matrix.diagonalIndex();
+  forEachChunk(count, threads(), [&](Eigen::Index begin, Eigen::Index end) {
+    for (Eigen::Index p = begin; p < end; ++p) {
+      std::copy_n(diagonal_blocks_.col(p).data(), GridBlockMatrix::kBlockEntries, matrix.block(static_cast<int>(p), diagonal));
+    }
+  });
+  // Off the diagonal, minus each spring's block, at both its ends (the matrix is symmetric).
+  spring_blocks_.resize(count, 6);
+  double* spring[6];
+  for (int e = 0; e < 6; ++e) spring[e] = spring_blocks_.col(e).data();
+  const ActiveFamilies& springs = linearized_families_;
+  for (int f = 0; f < springs.count; ++f) {
+    const StencilFamily& family = springs.family[f];
+#pragma omp parallel num_threads(threads()) if (parallel())
+    {
+      const RowBand band = threadBand(rows);
+      stencilSpringBlocks(rows, cols, family, constView(linearized_positions_), inverse_length_[f].data(),
+                          transverse_stiffness_[f].data(), h * h, h, spring, band.begin, band.end);
+    }
+    const int forward = matrix.offsetIndex(family.dr, family.dc);
+    const int backward = matrix.offsetIndex(-family.dr, -family.dc);
+    const int offset = family.offset(cols);
+    forEachChunk(count, threads(), [&](Eigen::Index begin, Eigen::Index end) {
+      for (Eigen::Index p = begin; p < end; ++p) {
+        const int r = static_cast<int>(p) / cols;
+        const int c = static_cast<int>(p) % cols;
+        if (r + family.dr >= rows || c + family.dc < 0 || c + family.dc >= cols) continue;
+        double* ahead = matrix.block(static_cast<int>(p), forward);
+        double* behind = matrix.block(static_cast<int>(p) + offset, backward);
+        for (int e = 0; e < GridBlockMatrix::kBlockEntries; ++e) ahead[e] = behind[e] = -spring[e][p];
+      }
+    });
+  }
+  return true;
+}
+
 }  // namespace cloth_sim::core

@@ -1,5 +1,7 @@
 #include "cloth_sim/core/integrators.h"
 
+#include "cloth_sim/core/preconditioner.h"
+
 #include "parallel.h"
 
 #include <cmath>
@@ -23,6 +25,8 @@ void Dynamics::systemProduct(double step_s, const Eigen::Matrix3Xd& w, Eigen::Ma
   forceDifferential(scaled_scratch_, differential_scratch_, out);
   out = w * mass_kg().asDiagonal() - out;
 }
+
+bool Dynamics::systemGridMatrix(double, GridBlockMatrix&) { return false; }
 
 StepReport& StepReport::operator+=(const StepReport& other) {
   force_evaluations += other.force_evaluations;
@@ -129,24 +133,6 @@ StepReport RK4::step(Dynamics& dynamics, double step_s, ClothState& state) {
 
 namespace {
 
-/// Inverts a symmetric 3x3 block (xx, yy, zz, xy, xz, yz) in place. The backward Euler blocks are
-/// M plus positive semi-definite terms, so they are positive definite; a block that is not (only
-/// possible with non-finite input) becomes the inverse of its diagonal.
-void invertSymmetricBlock(Eigen::Ref<Eigen::Matrix<double, 6, 1>> b) {
-  const double xx = b[0], yy = b[1], zz = b[2], xy = b[3], xz = b[4], yz = b[5];
-  const double c_xx = yy * zz - yz * yz;
-  const double c_xy = xz * yz - xy * zz;
-  const double c_xz = xy * yz - xz * yy;
-  const double det = xx * c_xx + xy * c_xy + xz * c_xz;
-  if (!(det > 0.0) || !std::isfinite(det)) {
-    b << 1.0 / xx, 1.0 / yy, 1.0 / zz, 0.0, 0.0, 0.0;
-    return;
-  }
-  const double inv = 1.0 / det;
-  b << c_xx * inv, (xx * zz - xz * xz) * inv, (xx * yy - xy * xy) * inv, c_xy * inv, c_xz * inv,
-      (xy * xz - xx * yz) * inv;
-}
-
 /// Sum of a_i . b_i over the particles [begin, end).
 double residualDot(const Eigen::Matrix3Xd& a, const Eigen::Matrix3Xd& b, Eigen::Index begin, Eigen::Index end) {
   double sum = 0.0;
@@ -156,17 +142,14 @@ double residualDot(const Eigen::Matrix3Xd& a, const Eigen::Matrix3Xd& b, Eigen::
 
 }  // namespace
 
-void ImplicitEuler::precondition(const Eigen::Matrix3Xd& r, Eigen::Matrix3Xd& out, Eigen::Index begin,
-                                 Eigen::Index end) const {
-  for (Eigen::Index i = begin; i < end; ++i) {
-    const double* b = blocks_.col(i).data();
-    const double x = r(0, i), y = r(1, i), z = r(2, i);
-    const double keep = free_[i];
-    out(0, i) = keep * (b[0] * x + b[3] * y + b[4] * z);
-    out(1, i) = keep * (b[3] * x + b[1] * y + b[5] * z);
-    out(2, i) = keep * (b[4] * x + b[5] * y + b[2] * z);
+ImplicitEuler::ImplicitEuler(const SolverOptions& options)
+    : options_(options), norm_(std::make_unique<BlockJacobiPreconditioner>()) {
+  if (options_.preconditioner != PreconditionerKind::kBlockJacobi) {
+    preconditioner_ = makePreconditioner(options_.preconditioner);
   }
 }
+
+ImplicitEuler::~ImplicitEuler() = default;
 
 StepReport ImplicitEuler::step(Dynamics& dynamics, double step_s, ClothState& state) {
   const Eigen::Index count = state.positions_m.cols();
@@ -197,34 +180,42 @@ StepReport ImplicitEuler::step(Dynamics& dynamics, double step_s, ClothState& st
     if (free_[i] == 0.0) dv_.col(i) = (prescribed_.col(i) - x0.col(i)) / h - v0.col(i);
   }
 
-  dynamics.systemDiagonalBlocks(h, blocks_);
+  // The stopping norm is block-Jacobi's whichever preconditioner runs: r^T D^-1 r (D the diagonal
+  // blocks), so the tolerance means the same residual, and the same cloth, for every preconditioner.
+  norm_->setup(dynamics, h, free_);
+  Preconditioner& preconditioner = preconditioner_ ? *preconditioner_ : *norm_;
+  if (preconditioner_) preconditioner_->setup(dynamics, h, free_);
+  const bool measured_by_preconditioner = !preconditioner_;
   const int threads = dynamics.threads();
-  forEachChunk(count, threads, [&](Eigen::Index begin, Eigen::Index end) {
-    for (Eigen::Index i = begin; i < end; ++i) invertSymmetricBlock(blocks_.col(i));
-  });
+  const auto dot = [&](const Eigen::Matrix3Xd& a, const Eigen::Matrix3Xd& b) {
+    return deterministicSum(count, threads, [&](Eigen::Index begin, Eigen::Index end) {
+      return residualDot(a, b, begin, end);
+    }, partial_sums_);
+  };
+  const auto normSquared = [&](const Eigen::Matrix3Xd& r) {
+    measured_.resize(3, count);
+    return deterministicSum(count, threads, [&](Eigen::Index begin, Eigen::Index end) {
+      norm_->applyRange(r, measured_, begin, end);
+      return residualDot(r, measured_, begin, end);
+    }, partial_sums_);
+  };
 
-  // Baraff and Witkin's modified PCG: every residual and direction filtered to the free particles. The
-  // vector updates of an iteration are fused into two passes over the particles, on all cores for large
-  // cloths, with sums that do not depend on the thread count.
+  // Baraff and Witkin's modified PCG: every residual and direction filtered to the free particles. Sums
+  // do not depend on the thread count.
   dynamics.systemProduct(h, dv_, product_);
   residual_ = (rhs_ - product_) * free_.asDiagonal();
-  preconditioned_.resize(3, count);
-  direction_.resize(3, count);
-  double delta = deterministicSum(count, threads, [&](Eigen::Index begin, Eigen::Index end) {
-    precondition(residual_, direction_, begin, end);
-    return residualDot(residual_, direction_, begin, end);
-  }, partial_sums_);
+  preconditioner.apply(residual_, direction_);
+  double delta = dot(residual_, direction_);
+  double measured = measured_by_preconditioner ? delta : normSquared(residual_);
   // Measured against the right-hand side, never against the first residual: a poor start must not
   // loosen the tolerance.
   product_ = rhs_ * free_.asDiagonal();
-  const double rhs_norm = deterministicSum(count, threads, [&](Eigen::Index begin, Eigen::Index end) {
-    precondition(product_, preconditioned_, begin, end);
-    return residualDot(product_, preconditioned_, begin, end);
-  }, partial_sums_);
-  const double reference = rhs_norm > 0.0 ? rhs_norm : delta;
+  const double rhs_norm = normSquared(product_);
+  const double reference = rhs_norm > 0.0 ? rhs_norm : measured;
   const double target = options_.tolerance * options_.tolerance * reference;
+  preconditioned_.resize(3, count);
   int iteration = 0;
-  while (iteration < options_.max_iterations && delta > target) {
+  while (iteration < options_.max_iterations && measured > target) {
     dynamics.systemProduct(h, direction_, product_);
     const double curvature = deterministicSum(count, threads, [&](Eigen::Index begin, Eigen::Index end) {
       double sum = 0.0;
@@ -236,12 +227,13 @@ StepReport ImplicitEuler::step(Dynamics& dynamics, double step_s, ClothState& st
     }, partial_sums_);
     if (!(curvature > 0.0)) break;  // only with non-finite input: the system is positive definite
     const double alpha = delta / curvature;
-    const double delta_next = deterministicSum(count, threads, [&](Eigen::Index begin, Eigen::Index end) {
+    forEachChunk(count, threads, [&](Eigen::Index begin, Eigen::Index end) {
       dv_.middleCols(begin, end - begin) += alpha * direction_.middleCols(begin, end - begin);
       residual_.middleCols(begin, end - begin) -= alpha * product_.middleCols(begin, end - begin);
-      precondition(residual_, preconditioned_, begin, end);
-      return residualDot(residual_, preconditioned_, begin, end);
-    }, partial_sums_);
+    });
+    preconditioner.apply(residual_, preconditioned_);
+    const double delta_next = dot(residual_, preconditioned_);
+    measured = measured_by_preconditioner ? delta_next : normSquared(residual_);
     const double beta = delta_next / delta;
     forEachChunk(count, threads, [&](Eigen::Index begin, Eigen::Index end) {
       direction_.middleCols(begin, end - begin) =
@@ -251,8 +243,8 @@ StepReport ImplicitEuler::step(Dynamics& dynamics, double step_s, ClothState& st
     ++iteration;
   }
   report.solver_iterations = iteration;
-  report.residual = reference > 0.0 ? std::sqrt(std::max(delta, 0.0) / reference) : 0.0;
-  report.converged = delta <= target;
+  report.residual = reference > 0.0 ? std::sqrt(std::max(measured, 0.0) / reference) : 0.0;
+  report.converged = measured <= target;
 
   state.velocities_m_per_s += dv_;
   state.positions_m += h * state.velocities_m_per_s;

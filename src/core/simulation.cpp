@@ -291,7 +291,8 @@ bool Simulation::retune(const SceneOptions& options, std::string* error) {
     return false;
   }
   if (options.integrator != options_.integrator || options.solver.tolerance != options_.solver.tolerance ||
-      options.solver.max_iterations != options_.solver.max_iterations) {
+      options.solver.max_iterations != options_.solver.max_iterations ||
+      options.solver.preconditioner != options_.solver.preconditioner) {
     integrator_ = makeIntegrator(options.integrator, options.solver);
   }
   options_ = options;
@@ -588,7 +589,8 @@ bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error)
     return false;
   }
   if (options.integrator != options_.integrator || options.solver.tolerance != options_.solver.tolerance ||
-      options.solver.max_iterations != options_.solver.max_iterations) {
+      options.solver.max_iterations != options_.solver.max_iterations ||
+      options.solver.preconditioner != options_.solver.preconditioner) {
     integrator_ = makeIntegrator(options.integrator, options.solver);
   }
   options_ = options;

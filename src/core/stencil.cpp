@@ -230,4 +230,20 @@ void stencilAccumulateBlocks(int rows, int cols, const StencilFamily* families, 
                  });
 }
 
+void stencilSpringBlocks(int rows, int cols, const StencilFamily& family, ConstField linearized_positions_m,
+                         const double* inverse_length_per_m, const double* transverse_stiffness_N_per_m,
+                         double scale_x, double scale_v, double* const* blocks, int row_begin, int row_end) {
+  const ConstField& p = linearized_positions_m;
+  const int offset = family.offset(cols);
+  for (int r = row_begin; r < row_end; ++r) {
+    const ColumnRange range = springColumns(rows, cols, family, r);
+    if (range.last <= range.first) continue;
+    const std::ptrdiff_t first = static_cast<std::ptrdiff_t>(r) * cols + range.first;
+    blockRow(range.last - range.first, offset, family.stiffness_N_per_m, scale_v * family.damping_N_s_per_m, scale_x,
+             p.x + first, p.y + first, p.z + first, inverse_length_per_m + first, transverse_stiffness_N_per_m + first,
+             blocks[0] + first, blocks[1] + first, blocks[2] + first, blocks[3] + first, blocks[4] + first,
+             blocks[5] + first);
+  }
+}
+
 }  // namespace cloth_sim::core

@@ -250,6 +250,11 @@ std::map<std::string, Setter> makeSetters() {
   s["solver_tolerance"] = [](const YAML::Node& n, SceneOptions& o) { o.solver.tolerance = readDouble(n); };
   s["threads"] = [](const YAML::Node& n, SceneOptions& o) { o.threads = readInt(n); };
   s["solver_max_iterations"] = [](const YAML::Node& n, SceneOptions& o) { o.solver.max_iterations = readInt(n); };
+  s["solver_preconditioner"] = [](const YAML::Node& n, SceneOptions& o) {
+    if (!parsePreconditionerName(readString(n), &o.solver.preconditioner)) {
+      throw WrongType{"one of " + preconditionerNameList()};
+    }
+  };
   s["frame_rate"] = [](const YAML::Node& n, SceneOptions& o) { o.frame_rate_hz = readDouble(n); };
   s["texture"] = [](const YAML::Node& n, SceneOptions& o) { o.texture = readString(n); };
   s["cameras"] = [](const YAML::Node& n, SceneOptions& o) { o.cameras = readCameras(n); };
@@ -498,6 +503,7 @@ std::string sceneYaml(const SceneOptions& o) {
   boolean("guard_retries", o.guard_retries);
   number("solver_tolerance", o.solver.tolerance);
   key("solver_max_iterations") << o.solver.max_iterations;
+  key("solver_preconditioner") << preconditionerName(o.solver.preconditioner);
   key("threads") << o.threads;
   number("frame_rate", o.frame_rate_hz);
   key("texture");

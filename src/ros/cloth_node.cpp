@@ -624,6 +624,10 @@ void ClothNode::onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t) {
   options.substeps = config.substeps;
   options.solver.tolerance = config.solver_tolerance;
   options.solver.max_iterations = config.solver_max_iterations;
+  if (error.empty() && !core::parsePreconditionerName(config.solver_preconditioner, &options.solver.preconditioner)) {
+    error = "solver_preconditioner = '" + config.solver_preconditioner + "': must be one of " +
+            core::preconditionerNameList();
+  }
   if (!error.empty() || !simulation_->retune(options, &error)) {
     ROS_WARN("cloth_node: reconfigure refused: %s; the previous values stay", error.c_str());
   } else if (wind != reconfigure_wind_) {
@@ -698,6 +702,7 @@ void ClothNode::fillConfig(cloth_sim::ClothConfig* config) const {
   c.substeps = o.substeps;
   c.solver_tolerance = o.solver.tolerance;
   c.solver_max_iterations = o.solver.max_iterations;
+  c.solver_preconditioner = core::preconditionerName(o.solver.preconditioner);
 }
 
 void ClothNode::pushConfig() {

@@ -280,6 +280,8 @@ TEST(SceneFile, UnknownKeyIsRejectedByName) { expectErrorNames("rows: 10\nstifne
 TEST(SceneFile, WrongTypeNamesTheFieldAndWhatWasExpected) {
   expectErrorNames("rows: ten\n", {"rows", "'ten'", "integer"});
   expectErrorNames("origin: [1, 2]\n", {"origin", "3 numbers"});
+  expectErrorNames("solver_preconditioner: jacobi\n",
+                   {"solver_preconditioner", "'jacobi'", "block_jacobi, multigrid"});
   expectErrorNames("shear_enabled: maybe\n", {"shear_enabled", "true or false"});
   expectErrorNames("integrator: leapfrog\n", {"integrator", "rk4"});
   expectErrorNames("planes:\n  - {normal: [0, 0, 1], offst: 0}\n", {"planes", "offst"});

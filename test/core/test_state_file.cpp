@@ -116,6 +116,7 @@ bool sameBits(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   check(a.guard_retries == b.guard_retries, "guard_retries");
   check(sameBits(a.solver.tolerance, b.solver.tolerance), "solver_tolerance");
   check(a.solver.max_iterations == b.solver.max_iterations, "solver_max_iterations");
+  check(a.solver.preconditioner == b.solver.preconditioner, "solver_preconditioner");
   check(a.threads == b.threads, "threads");
   check(sameBits(a.frame_rate_hz, b.frame_rate_hz), "frame_rate");
   check(a.texture == b.texture, "texture");
@@ -481,6 +482,7 @@ SceneOptions randomOptions(std::mt19937_64& random) {
   o.guard_retries = random() % 2 == 0;
   o.solver.tolerance = d();
   o.solver.max_iterations = i();
+  o.solver.preconditioner = allPreconditionerKinds()[random() % allPreconditionerKinds().size()];
   o.threads = i();
   o.frame_rate_hz = d();
   o.texture = anyString(random);

@@ -795,6 +795,30 @@ TEST_F(NodeTest, ReconfigureRefusesAnUnknownIntegrator) {
   EXPECT_EQ(later->integrator, before);
 }
 
+TEST_F(NodeTest, ReconfigureSwitchesThePreconditionerAndRefusesAnUnknownOne) {
+  ASSERT_NO_FATAL_FAILURE(freshScene(false));
+  ASSERT_TRUE(states_->waitForNext(10.0, states_->count()));
+  dynamic_reconfigure::Reconfigure reconfigure;
+  dynamic_reconfigure::StrParameter parameter;
+  parameter.name = "solver_preconditioner";
+  parameter.value = "block_jacobi";
+  reconfigure.request.config.strs.push_back(parameter);
+  ASSERT_TRUE(callService(nodeTopic("tuning/set_parameters"), reconfigure));
+  EXPECT_EQ(stringIn(reconfigure.response.config, "solver_preconditioner"), "block_jacobi");
+  reconfigure.request.config.strs.front().value = "jacobi";
+  ASSERT_TRUE(callService(nodeTopic("tuning/set_parameters"), reconfigure));
+  EXPECT_EQ(stringIn(reconfigure.response.config, "solver_preconditioner"), "block_jacobi")
+      << "a refused name leaves the one in force";
+  const std::uint64_t since = states_->count();
+  const auto now = states_->waitForNext(10.0, since);
+  ASSERT_TRUE(now);
+  EXPECT_TRUE(states_->waitFor([&](const ClothState& s) { return s.frame >= now->frame + 5; }, 10.0, since))
+      << "the node stopped after the refused reconfigure";
+  reconfigure.request.config.strs.front().value = "multigrid";
+  ASSERT_TRUE(callService(nodeTopic("tuning/set_parameters"), reconfigure));
+  EXPECT_EQ(stringIn(reconfigure.response.config, "solver_preconditioner"), "multigrid");
+}
+
 TEST_F(NodeTest, ReconfigureKeepsTheWindFromTheTopic) {
   // A reconfigure of substeps carries the wind sliders too; they must not overwrite a wind that came
   // in on ~wind. Paused, so each check is a fixed number of frames.

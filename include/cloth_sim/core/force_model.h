@@ -8,6 +8,7 @@
 #pragma once
 
 #include "cloth_sim/core/grid.h"
+#include "cloth_sim/core/grid_matrix.h"
 #include "cloth_sim/core/inputs.h"
 #include "cloth_sim/core/integrators.h"
 #include "cloth_sim/core/kinematics.h"
@@ -51,6 +52,9 @@ class ClothForceModel final : public Dynamics {
   void stiffnessProduct(const Eigen::Matrix3Xd& dx_m, Eigen::Matrix3Xd& df_N) override;
   void systemProduct(double step_s, const Eigen::Matrix3Xd& w, Eigen::Matrix3Xd& out) override;
   void systemDiagonalBlocks(double step_s, Eigen::Matrix<double, 6, Eigen::Dynamic>& blocks) override;
+  /// 13 offsets: the diagonal (systemDiagonalBlocks) and each spring family both ways (minus the
+  /// springs' blocks).
+  bool systemGridMatrix(double step_s, GridBlockMatrix& matrix) override;
 
   /// Springs one force evaluation computes (of the switched-on kinds).
   std::size_t springCount() const;
@@ -92,7 +96,8 @@ class ClothForceModel final : public Dynamics {
   // Scratch, reused across calls (sized on first use).
   SoaField positions_, velocities_, result_, dx_;
   Eigen::MatrixXd row_scratch_;  ///< one column per thread: a few grid rows of per-spring values
-  Eigen::Matrix<double, Eigen::Dynamic, 6> block_sums_;
+  Eigen::Matrix<double, Eigen::Dynamic, 6> block_sums_, spring_blocks_;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> diagonal_blocks_;
   // The linearisation (written by linearize), per switched-on family.
   SoaField linearized_positions_;
   ActiveFamilies linearized_families_;

@@ -11,6 +11,8 @@
 
 namespace cloth_sim::core {
 
+class GridBlockMatrix;
+
 /// The right-hand side of the ODE x' = v, M v' = F(x, v, t), with what an implicit method needs on top:
 /// the masses, the constrained particles and the force differential. All fields are 3 x N, world frame.
 class Dynamics {
@@ -43,6 +45,10 @@ class Dynamics {
   virtual void systemProduct(double step_s, const Eigen::Matrix3Xd& w, Eigen::Matrix3Xd& out);
   /// The 3x3 diagonal blocks of that matrix, one column per particle: xx, yy, zz, xy, xz, yz.
   virtual void systemDiagonalBlocks(double step_s, Eigen::Matrix<double, 6, Eigen::Dynamic>& blocks) = 0;
+  /// The same matrix assembled on the particle grid (grid_matrix.h: a symmetric 3x3 block per particle and
+  /// neighbour offset), for multigrid; constrained particles are not filtered. False (the default): the
+  /// dynamics has no grid, and multigrid falls back to block-Jacobi.
+  virtual bool systemGridMatrix(double step_s, GridBlockMatrix& matrix);
 
   /// Threads the model's loops, and a solver's over its particles, may use.
   virtual int threads() const { return 1; }
@@ -54,6 +60,9 @@ class Dynamics {
  private:
   Eigen::Matrix3Xd differential_scratch_, scaled_scratch_;
 };
+
+class Preconditioner;
+class BlockJacobiPreconditioner;
 
 /// What one step did.
 struct StepReport {
@@ -76,14 +85,30 @@ bool parseIntegratorName(const std::string& name, IntegratorKind* kind);
 /// The names above joined with ", " (for error messages and docs).
 std::string integratorNameList();
 
+/// The conjugate-gradient preconditioner of implicit Euler (preconditioner.h, multigrid.h).
+enum class PreconditionerKind { kBlockJacobi, kMultigrid };
+
+/// All kinds, cheapest per iteration first.
+const std::vector<PreconditionerKind>& allPreconditionerKinds();
+/// "block_jacobi", "multigrid": the names used in scenes and parameters (`solver_preconditioner`).
+const char* preconditionerName(PreconditionerKind kind);
+/// Parses a name above; false if unknown.
+bool parsePreconditionerName(const std::string& name, PreconditionerKind* kind);
+/// The names above joined with ", " (for error messages and docs).
+std::string preconditionerNameList();
+
 /// How hard the implicit solver works per step (conjugate gradients on the backward Euler system).
 struct SolverOptions {
-  /// Stop when the residual, in the preconditioner's norm, falls below this fraction of the right-hand
-  /// side's (or of the first residual's, if larger).
+  /// Stop when the residual falls below this fraction of the right-hand side, both measured in the
+  /// block-Jacobi norm (|r|^2 = r^T D^-1 r, D the 3x3 diagonal blocks of the system) whichever
+  /// preconditioner runs, so a tolerance means the same cloth for every preconditioner.
   double tolerance = 1e-3;
   /// Stop after this many iterations even above the tolerance; the step is still taken (reported as not
   /// converged): a truncated CG solution damps the stiff modes first, so it stays stable.
   int max_iterations = 100;
+  /// What preconditions the conjugate gradients: the 3x3 diagonal blocks (cheap per iteration, but the
+  /// iterations grow with the grid and the stiffness) or a geometric multigrid V-cycle on the grid.
+  PreconditionerKind preconditioner = PreconditionerKind::kMultigrid;
 };
 
 /// Advances positions, velocities and time by one step h. Holds its own scratch, so one instance per
@@ -144,7 +169,7 @@ class RK4 final : public Integrator {
 
 /// Backward Euler linearised once per step (Baraff and Witkin 1998, "Large Steps in Cloth Simulation"):
 ///   (M - h dF/dv - h^2 dF/dx) dv = h (F0 + h dF/dx v0),  v1 = v0 + dv,  x1 = x0 + h v1,
-/// solved matrix-free by conjugate gradients with a block-Jacobi (3x3 per particle) preconditioner and
+/// solved matrix-free by conjugate gradients with a preconditioner (SolverOptions::preconditioner) and
 /// Baraff and Witkin's constraint filter: a constrained particle's dv is fixed so that it lands exactly
 /// where Dynamics::constrainedPositions puts it at t + h (pins, moving pins, hooked pins), and its rows
 /// are filtered out of every residual and search direction. The solve starts from dv = 0 (a capped solve
@@ -152,21 +177,21 @@ class RK4 final : public Integrator {
 /// linearised system; it damps, so energy never grows without forcing. First order.
 class ImplicitEuler final : public Integrator {
  public:
-  explicit ImplicitEuler(const SolverOptions& options = SolverOptions()) : options_(options) {}
+  explicit ImplicitEuler(const SolverOptions& options = SolverOptions());
+  ~ImplicitEuler() override;
   IntegratorKind kind() const override { return IntegratorKind::kImplicitEuler; }
   int order() const override { return 1; }
   StepReport step(Dynamics& dynamics, double step_s, ClothState& state) override;
 
  private:
-  /// out = P^-1 r with the inverted 3x3 diagonal blocks, zero on constrained particles, for particles
-  /// [begin, end).
-  void precondition(const Eigen::Matrix3Xd& r, Eigen::Matrix3Xd& out, Eigen::Index begin, Eigen::Index end) const;
-
   SolverOptions options_;
-  Eigen::Matrix3Xd forces_, rhs_, dv_, residual_, direction_, product_, preconditioned_, prescribed_;
-  Eigen::Matrix<double, 6, Eigen::Dynamic> blocks_;  ///< inverted diagonal blocks, xx yy zz xy xz yz
-  Eigen::VectorXd free_;                             ///< 1 for a free particle, 0 for a constrained one
-  std::vector<double> partial_sums_;                 ///< per chunk, for the deterministic dot products
+  /// The block-Jacobi preconditioner measures every residual (the stopping norm); it also preconditions
+  /// when options_.preconditioner asks for it, and then preconditioner_ is empty.
+  std::unique_ptr<BlockJacobiPreconditioner> norm_;
+  std::unique_ptr<Preconditioner> preconditioner_;
+  Eigen::Matrix3Xd forces_, rhs_, dv_, residual_, direction_, product_, preconditioned_, prescribed_, measured_;
+  Eigen::VectorXd free_;              ///< 1 for a free particle, 0 for a constrained one
+  std::vector<double> partial_sums_;  ///< per chunk, for the deterministic dot products
 };
 
 std::unique_ptr<Integrator> makeIntegrator(IntegratorKind kind, const SolverOptions& solver = SolverOptions());

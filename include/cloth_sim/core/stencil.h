@@ -86,4 +86,11 @@ void stencilAccumulateBlocks(int rows, int cols, const StencilFamily* families, 
                              const double* const* transverse_stiffness_N_per_m, double scale_x, double scale_v,
                              double* const* blocks, double* row_scratch, int row_begin, int row_end);
 
+/// Each spring's own block of one family, scale_x (a I + (Ks - a) u u^T) + scale_v Kd u u^T, written (not
+/// added) to six arrays indexed by the spring's first particle, for first particles in rows
+/// [row_begin, row_end); entries of particles that start no spring are left alone.
+void stencilSpringBlocks(int rows, int cols, const StencilFamily& family, ConstField linearized_positions_m,
+                         const double* inverse_length_per_m, const double* transverse_stiffness_N_per_m,
+                         double scale_x, double scale_v, double* const* blocks, int row_begin, int row_end);
+
 }  // namespace cloth_sim::core

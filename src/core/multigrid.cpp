@@ -1,0 +1,398 @@
+#include "cloth_sim/core/multigrid.h"
+
+#include "parallel.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace cloth_sim::core {
+
+namespace {
+
+/// Sides of this many particles or fewer are not coarsened.
+constexpr int kSmallestCoarsenedSide = 3;
+
+/// Index of {dr, dc} in GridBlockMatrix::fullStencil().
+inline int fullStencilIndex(int dr, int dc) {
+  constexpr int width = 2 * GridBlockMatrix::kMaxReach + 1;
+  return (dr + GridBlockMatrix::kMaxReach) * width + dc + GridBlockMatrix::kMaxReach;
+}
+
+/// Half-bandwidth, in dofs, of one line's own couplings: a particle reaches kMaxReach particles along it.
+constexpr int kLineBand = 3 * GridBlockMatrix::kMaxReach + 2;
+constexpr int kBandWidth = kLineBand + 1;
+
+/// Entry (a, b) of a symmetric block stored as xx, yy, zz, xy, xz, yz.
+inline double blockEntry(const double* block, int a, int b) {
+  static constexpr int kIndex[3][3] = {{0, 3, 4}, {3, 1, 5}, {4, 5, 2}};
+  return block[kIndex[a][b]];
+}
+
+/// In place: band[i * kBandWidth + k] = A(i, i - k) becomes the Cholesky factor's L(i, i - k), except on
+/// the diagonal, which holds 1 / L(i, i) (the solves then multiply: a division's latency sits on their
+/// critical path).
+void bandedCholesky(int dofs, double* band) {
+  // Right-looking: once column j is final it updates the band below it. Every update of one column is
+  // independent of the others, so none waits for the previous one (a left-looking dot product put a
+  // chain of eight dependent subtractions on every entry).
+  for (int j = 0; j < dofs; ++j) {
+    double* row_j = band + static_cast<std::ptrdiff_t>(j) * kBandWidth;
+    const double diagonal = row_j[0];
+    // Positive for a positive definite line (every line of M + PSD terms is); guarded against rounding.
+    const double inverse = diagonal > 0.0 ? 1.0 / std::sqrt(diagonal) : 1.0;
+    row_j[0] = inverse;
+    const int last = j + kLineBand < dofs ? j + kLineBand : dofs - 1;
+    double column[kBandWidth];
+    for (int i = j + 1; i <= last; ++i) {
+      double* entry = band + static_cast<std::ptrdiff_t>(i) * kBandWidth + (i - j);
+      *entry *= inverse;
+      column[i - j] = *entry;
+    }
+    for (int i = j + 1; i <= last; ++i) {
+      double* row_i = band + static_cast<std::ptrdiff_t>(i) * kBandWidth;
+      const double l_ij = column[i - j];
+      for (int m = j + 1; m <= i; ++m) row_i[i - m] -= l_ij * column[m - j];  // A(i, m) -= L(i, j) L(m, j)
+    }
+  }
+}
+
+/// The sum of row[k] * v[-k] over k = 2..kLineBand as a tree: none of it waits for v[-1], which the
+/// previous dof has just computed, so only one product and two subtractions per dof stay on the solve's
+/// critical path (a left-to-right sum put all eight there). A fixed order: the same bits every time.
+static_assert(kLineBand == 8, "farSum is written out for a band of 8");
+inline double farSum(const double* row, const double* v, int step) {
+  return ((row[8] * v[-8 * step] + row[7] * v[-7 * step]) + (row[6] * v[-6 * step] + row[5] * v[-5 * step])) +
+         ((row[4] * v[-4 * step] + row[3] * v[-3 * step]) + row[2] * v[-2 * step]);
+}
+
+/// Solves L L^T y = v in place.
+void bandedSolve(int dofs, const double* band, double* v) {
+  for (int i = 0; i < dofs; ++i) {
+    const double* row = band + static_cast<std::ptrdiff_t>(i) * kBandWidth;
+    if (i >= kLineBand) {
+      v[i] = (v[i] - farSum(row, v + i, 1) - row[1] * v[i - 1]) * row[0];
+      continue;
+    }
+    double value = v[i];
+    for (int k = i; k >= 1; --k) value -= row[k] * v[i - k];
+    v[i] = value * row[0];
+  }
+  // L^T: row i of L^T holds L(i + k, i), column k of band row i + k.
+  double column[kBandWidth];
+  for (int i = dofs - 1; i >= 0; --i) {
+    const int reach = dofs - 1 - i < kLineBand ? dofs - 1 - i : kLineBand;
+    if (reach == kLineBand) {
+      for (int k = 1; k <= kLineBand; ++k) column[k] = band[static_cast<std::ptrdiff_t>(i + k) * kBandWidth + k];
+      // farSum reads row[k] * v[-k * step]: with step -1 it reads v[i + k].
+      v[i] = (v[i] - farSum(column, v + i, -1) - column[1] * v[i + 1]) * band[static_cast<std::ptrdiff_t>(i) * kBandWidth];
+      continue;
+    }
+    double value = v[i];
+    for (int k = reach; k >= 1; --k) value -= band[static_cast<std::ptrdiff_t>(i + k) * kBandWidth + k] * v[i + k];
+    v[i] = value * band[static_cast<std::ptrdiff_t>(i) * kBandWidth];
+  }
+}
+
+}  // namespace
+
+void MultigridPreconditioner::factorLines(Level& level, bool rows) const {
+  const GridBlockMatrix& a = level.matrix;
+  const int lines = rows ? a.rows() : a.cols();
+  const int length = rows ? a.cols() : a.rows();
+  const int dofs = 3 * length;
+  std::vector<double>& factors = rows ? level.row_factors : level.col_factors;
+  factors.assign(static_cast<std::size_t>(lines) * dofs * kBandWidth, 0.0);
+  int along[GridBlockMatrix::kMaxReach + 1];
+  for (int d = 0; d <= GridBlockMatrix::kMaxReach; ++d) along[d] = rows ? a.offsetIndex(0, -d) : a.offsetIndex(-d, 0);
+  const int n = a.particles();
+#pragma omp parallel for schedule(static) num_threads(threads_) if (runsInParallel(n, threads_))
+  for (int line = 0; line < lines; ++line) {
+    double* band = factors.data() + static_cast<std::ptrdiff_t>(line) * dofs * kBandWidth;
+    for (int t = 0; t < length; ++t) {
+      const int p = rows ? line * a.cols() + t : t * a.cols() + line;
+      const bool p_free = level.free[p] != 0.0;
+      for (int d = 0; d <= GridBlockMatrix::kMaxReach && d <= t; ++d) {
+        if (along[d] < 0) continue;
+        const int q = rows ? p - d : p - d * a.cols();
+        const bool coupled = p_free && level.free[q] != 0.0;
+        const double* block = a.block(p, along[d]);
+        for (int i = 0; i < 3; ++i) {
+          for (int j = 0; j < 3; ++j) {
+            const int k = 3 * d + i - j;  // A(3t + i, 3(t - d) + j) sits k below the diagonal
+            if (k < 0) continue;
+            double value = coupled ? blockEntry(block, i, j) : 0.0;
+            if (!p_free && d == 0) value = i == j ? 1.0 : 0.0;  // a fixed dof: decoupled, identity
+            band[static_cast<std::ptrdiff_t>(3 * t + i) * kBandWidth + k] = value;
+          }
+        }
+      }
+    }
+    bandedCholesky(dofs, band);
+  }
+}
+
+void MultigridPreconditioner::smoothLines(int level, bool rows, bool from_zero) {
+  Level& l = levels_[level];
+  const GridBlockMatrix& a = l.matrix;
+  const int lines = rows ? a.rows() : a.cols();
+  const int length = rows ? a.cols() : a.rows();
+  const int dofs = 3 * length;
+  const int n = a.particles();
+  if (from_zero) {
+    l.solution.setZero();
+    l.residual.setZero();  // A 0: the residual is the right-hand side
+  } else {
+    product(level, l.solution, l.residual);
+  }
+  const std::vector<double>& factors = rows ? l.row_factors : l.col_factors;
+  l.line_scratch.resize(3, n);
+#pragma omp parallel for schedule(static) num_threads(threads_) if (runsInParallel(n, threads_))
+  for (int line = 0; line < lines; ++line) {
+    double* v = l.line_scratch.data() + static_cast<std::ptrdiff_t>(line) * dofs;
+    for (int t = 0; t < length; ++t) {
+      const int p = rows ? line * a.cols() + t : t * a.cols() + line;
+      for (int i = 0; i < 3; ++i) v[3 * t + i] = l.free[p] * (l.rhs(i, p) - l.residual(i, p));
+    }
+    bandedSolve(dofs, factors.data() + static_cast<std::ptrdiff_t>(line) * dofs * kBandWidth, v);
+    for (int t = 0; t < length; ++t) {
+      const int p = rows ? line * a.cols() + t : t * a.cols() + line;
+      for (int i = 0; i < 3; ++i) l.solution(i, p) += kLineSmootherWeight * l.free[p] * v[3 * t + i];
+    }
+  }
+}
+
+MultigridPreconditioner::Axis MultigridPreconditioner::makeAxis(int fine) {
+  Axis axis;
+  axis.fine = fine;
+  axis.coarse = fine >= kSmallestCoarsenedSide ? (fine + 1) / 2 : fine;
+  const bool coarsened = axis.coarse != fine;
+  axis.parent.resize(fine);
+  axis.parent2.assign(fine, -1);
+  axis.weight.resize(fine);
+  axis.weight2.assign(fine, 0.0);
+  for (int f = 0; f < fine; ++f) {
+    if (!coarsened || f % 2 == 0) {
+      axis.parent[f] = coarsened ? f / 2 : f;
+      axis.weight[f] = 1.0;
+    } else if ((f + 1) / 2 < axis.coarse) {  // halfway between two coarse particles
+      axis.parent[f] = (f - 1) / 2;
+      axis.weight[f] = 0.5;
+      axis.parent2[f] = (f + 1) / 2;
+      axis.weight2[f] = 0.5;
+    } else {  // an even side's last particle: only one coarse neighbour, which it follows (a free edge)
+      axis.parent[f] = (f - 1) / 2;
+      axis.weight[f] = 1.0;
+    }
+  }
+  // The transpose, coarse index by coarse index, children in increasing fine index.
+  axis.child_begin.assign(axis.coarse + 1, 0);
+  for (int f = 0; f < fine; ++f) {
+    ++axis.child_begin[axis.parent[f] + 1];
+    if (axis.parent2[f] >= 0) ++axis.child_begin[axis.parent2[f] + 1];
+  }
+  for (int j = 0; j < axis.coarse; ++j) axis.child_begin[j + 1] += axis.child_begin[j];
+  axis.child.resize(axis.child_begin.back());
+  axis.child_weight.resize(axis.child_begin.back());
+  std::vector<int> next(axis.child_begin.begin(), axis.child_begin.end() - 1);
+  for (int f = 0; f < fine; ++f) {
+    axis.child[next[axis.parent[f]]] = f;
+    axis.child_weight[next[axis.parent[f]]++] = axis.weight[f];
+    if (axis.parent2[f] >= 0) {
+      axis.child[next[axis.parent2[f]]] = f;
+      axis.child_weight[next[axis.parent2[f]]++] = axis.weight2[f];
+    }
+  }
+  return axis;
+}
+
+void MultigridPreconditioner::buildCoarse(const Level& fine, Level& coarse) const {
+  const GridBlockMatrix& a = fine.matrix;
+  const Axis& rows = fine.row_axis;
+  const Axis& cols = fine.col_axis;
+  const int fine_cols = a.cols();
+  coarse.matrix.reset(rows.coarse, cols.coarse, GridBlockMatrix::fullStencil());
+  GridBlockMatrix& c = coarse.matrix;
+  const int count = c.particles();
+  const std::vector<GridOffset>& offsets = a.offsets();
+  const int offset_count = static_cast<int>(offsets.size());
+  coarse.free.resize(count);
+  // Galerkin product P^T (S A S) P, one coarse row at a time (so each entry is summed by one thread in a
+  // fixed order): for each fine child p of coarse particle I and each fine neighbour q of p, the block
+  // A_pq goes to every coarse parent J of q with weight P_pI P_qJ (zero for constrained p or q).
+  forEachChunk(count, threads_, [&](Eigen::Index begin, Eigen::Index end) {
+    for (Eigen::Index coarse_index = begin; coarse_index < end; ++coarse_index) {
+      const int ci = static_cast<int>(coarse_index) / cols.coarse;
+      const int cj = static_cast<int>(coarse_index) % cols.coarse;
+      for (int kr = rows.child_begin[ci]; kr < rows.child_begin[ci + 1]; ++kr) {
+        const int fr = rows.child[kr];
+        for (int kc = cols.child_begin[cj]; kc < cols.child_begin[cj + 1]; ++kc) {
+          const int fc = cols.child[kc];
+          const int p = fr * fine_cols + fc;
+          const double wp = rows.child_weight[kr] * cols.child_weight[kc] * fine.free[p];
+          if (wp == 0.0) continue;
+          for (int o = 0; o < offset_count; ++o) {
+            const int qr = fr + offsets[o].dr;
+            const int qc = fc + offsets[o].dc;
+            if (qr < 0 || qr >= a.rows() || qc < 0 || qc >= fine_cols) continue;
+            if (fine.free[qr * fine_cols + qc] == 0.0) continue;
+            const double* b = a.block(p, o);
+            const int row_parents[2] = {rows.parent[qr], rows.parent2[qr]};
+            const double row_weights[2] = {rows.weight[qr], rows.weight2[qr]};
+            const int col_parents[2] = {cols.parent[qc], cols.parent2[qc]};
+            const double col_weights[2] = {cols.weight[qc], cols.weight2[qc]};
+            for (int i = 0; i < 2 && row_parents[i] >= 0; ++i) {
+              for (int j = 0; j < 2 && col_parents[j] >= 0; ++j) {
+                const double w = wp * row_weights[i] * col_weights[j];
+                double* target =
+                    c.block(static_cast<int>(coarse_index), fullStencilIndex(row_parents[i] - ci, col_parents[j] - cj));
+                for (int e = 0; e < GridBlockMatrix::kBlockEntries; ++e) target[e] += w * b[e];
+              }
+            }
+          }
+        }
+      }
+      // A coarse particle all of whose children are constrained has an empty row: it stays fixed.
+      double* diagonal = c.block(static_cast<int>(coarse_index), c.diagonalIndex());
+      const bool moves = diagonal[0] + diagonal[1] + diagonal[2] > 0.0;
+      coarse.free[coarse_index] = moves ? 1.0 : 0.0;
+      if (!moves) {
+        std::fill_n(diagonal, GridBlockMatrix::kBlockEntries, 0.0);
+        diagonal[0] = diagonal[1] = diagonal[2] = 1.0;
+      }
+    }
+  });
+}
+
+void MultigridPreconditioner::setup(Dynamics& dynamics, double step_s, const Eigen::VectorXd& free) {
+  dynamics_ = &dynamics;
+  step_s_ = step_s;
+  threads_ = dynamics.threads();
+  if (levels_.empty()) levels_.resize(1);
+  if (!dynamics.systemGridMatrix(step_s, levels_[0].matrix)) {
+    levels_.clear();
+    fallback_.setup(dynamics, step_s, free);
+    return;
+  }
+  levels_[0].free = free;
+  std::size_t count = 1;
+  while (levels_[count - 1].matrix.particles() > kCoarsestParticles) {
+    Level& fine = levels_[count - 1];
+    fine.row_axis = makeAxis(fine.matrix.rows());
+    fine.col_axis = makeAxis(fine.matrix.cols());
+    if (fine.row_axis.coarse == fine.row_axis.fine && fine.col_axis.coarse == fine.col_axis.fine) break;
+    if (levels_.size() == count) levels_.emplace_back();
+    buildCoarse(levels_[count - 1], levels_[count]);
+    ++count;
+  }
+  levels_.resize(count);
+  for (std::size_t l = 0; l + 1 < count; ++l) {
+    factorLines(levels_[l], true);
+    factorLines(levels_[l], false);
+  }
+  for (Level& level : levels_) {
+    level.rhs.resize(3, level.matrix.particles());
+    level.solution.resize(3, level.matrix.particles());
+    level.residual.resize(3, level.matrix.particles());
+  }
+  // The coarsest level directly: its dense matrix with the fixed particles' dofs decoupled.
+  const Level& coarsest = levels_.back();
+  Eigen::MatrixXd dense = coarsest.matrix.dense();
+  for (int p = 0; p < coarsest.matrix.particles(); ++p) {
+    if (coarsest.free[p] != 0.0) continue;
+    dense.middleRows(3 * p, 3).setZero();
+    dense.middleCols(3 * p, 3).setZero();
+    dense.block<3, 3>(3 * p, 3 * p).setIdentity();
+  }
+  coarsest_.compute(dense);
+}
+
+void MultigridPreconditioner::product(int level, const Eigen::Matrix3Xd& x, Eigen::Matrix3Xd& y) {
+  if (level == 0) {
+    dynamics_->systemProduct(step_s_, x, y);  // matrix-free: cheaper than the 13-block stencil
+  } else {
+    levels_[level].matrix.multiply(x, y, threads_);
+  }
+}
+
+void MultigridPreconditioner::restrictResidual(int level) {
+  Level& fine = levels_[level];
+  Level& coarse = levels_[level + 1];
+  product(level, fine.solution, fine.residual);
+  fine.residual = fine.rhs - fine.residual;
+  const Axis& rows = fine.row_axis;
+  const Axis& cols = fine.col_axis;
+  const int fine_cols = fine.matrix.cols();
+  forEachChunk(coarse.matrix.particles(), threads_, [&](Eigen::Index begin, Eigen::Index end) {
+    for (Eigen::Index j = begin; j < end; ++j) {
+      const int ci = static_cast<int>(j) / cols.coarse;
+      const int cj = static_cast<int>(j) % cols.coarse;
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      for (int kr = rows.child_begin[ci]; kr < rows.child_begin[ci + 1]; ++kr) {
+        for (int kc = cols.child_begin[cj]; kc < cols.child_begin[cj + 1]; ++kc) {
+          const int p = rows.child[kr] * fine_cols + cols.child[kc];
+          sum += (rows.child_weight[kr] * cols.child_weight[kc] * fine.free[p]) * fine.residual.col(p);
+        }
+      }
+      coarse.rhs.col(j) = coarse.free[j] * sum;
+    }
+  });
+}
+
+void MultigridPreconditioner::prolongateAdd(int level) {
+  Level& fine = levels_[level];
+  const Level& coarse = levels_[level + 1];
+  const Axis& rows = fine.row_axis;
+  const Axis& cols = fine.col_axis;
+  const int fine_cols = fine.matrix.cols();
+  forEachChunk(fine.matrix.particles(), threads_, [&](Eigen::Index begin, Eigen::Index end) {
+    for (Eigen::Index p = begin; p < end; ++p) {
+      if (fine.free[p] == 0.0) continue;
+      const int fr = static_cast<int>(p) / fine_cols;
+      const int fc = static_cast<int>(p) % fine_cols;
+      const int row_parents[2] = {rows.parent[fr], rows.parent2[fr]};
+      const double row_weights[2] = {rows.weight[fr], rows.weight2[fr]};
+      const int col_parents[2] = {cols.parent[fc], cols.parent2[fc]};
+      const double col_weights[2] = {cols.weight[fc], cols.weight2[fc]};
+      for (int i = 0; i < 2 && row_parents[i] >= 0; ++i) {
+        for (int j = 0; j < 2 && col_parents[j] >= 0; ++j) {
+          fine.solution.col(p) +=
+              (row_weights[i] * col_weights[j]) * coarse.solution.col(row_parents[i] * cols.coarse + col_parents[j]);
+        }
+      }
+    }
+  });
+}
+
+void MultigridPreconditioner::cycle(int level) {
+  Level& l = levels_[level];
+  if (level + 1 == static_cast<int>(levels_.size())) {
+    coarsest_rhs_ = Eigen::Map<const Eigen::VectorXd>(l.rhs.data(), l.rhs.size());
+    Eigen::Map<Eigen::VectorXd>(l.solution.data(), l.solution.size()) = coarsest_.solve(coarsest_rhs_);
+    l.solution = l.solution * l.free.asDiagonal();
+    return;
+  }
+  // Rows then columns before, columns then rows after: the cycle stays symmetric.
+  for (int s = 0; s < kSmoothingSweeps; ++s) {
+    smoothLines(level, true, s == 0);
+    smoothLines(level, false, false);
+  }
+  restrictResidual(level);
+  cycle(level + 1);
+  prolongateAdd(level);
+  for (int s = 0; s < kSmoothingSweeps; ++s) {
+    smoothLines(level, false, false);
+    smoothLines(level, true, false);
+  }
+}
+
+void MultigridPreconditioner::apply(const Eigen::Matrix3Xd& r, Eigen::Matrix3Xd& z) {
+  if (levels_.empty()) {
+    fallback_.apply(r, z);
+    return;
+  }
+  levels_[0].rhs = r * levels_[0].free.asDiagonal();
+  cycle(0);
+  z = levels_[0].solution;
+}
+
+}  // namespace cloth_sim::core
