@@ -23,13 +23,15 @@ import json
 import os
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
 import threading
 import time
 import xmlrpc.client
+
+# Its master-and-node plumbing is load.py's (the scripts run from this folder).
+from load import free_port, wait_for
 
 CALLER = "/cloth_rates"
 READY_S = 60.0        # a 128x128 scene builds and its node registers within this
@@ -40,21 +42,6 @@ RVIZ_SCREEN = "1000x720x24"
 # The displays of config/cloth.rviz that draw the cloth: from ~state (the plugin) and from ~mesh.
 RVIZ_DISPLAYS = {"plugin": "cloth_sim/ClothState", "marker": "rviz/Marker"}
 RVIZ_TOPICS = {"plugin": "/cloth_node/state", "marker": "/cloth_node/mesh"}
-
-
-def wait_for(condition, timeout_s, period_s=0.05):
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        if condition():
-            return True
-        time.sleep(period_s)
-    return condition()
-
-
-def free_port():
-    with socket.socket() as probe:
-        probe.bind(("localhost", 0))
-        return probe.getsockname()[1]
 
 
 def find_executable(name):

@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdint>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -21,6 +23,21 @@ inline SceneOptions loadBuiltinScene(const std::string& name) {
   const bool loaded = loadSceneFile(resolveScenePath(name, scenesDir()), &options, &errors);
   EXPECT_TRUE(loaded) << name << ": " << (errors.empty() ? "" : errors.front());
   return options;
+}
+
+/// The rest grid jiggled by up to 30 % of a spacing, with random velocities in [-1, 1] m/s: every spring
+/// stretched, compressed, skewed and moving, so every term of a linearisation is exercised.
+inline void perturb(const ClothGrid& grid, std::uint32_t seed, Eigen::Matrix3Xd* positions,
+                    Eigen::Matrix3Xd* velocities) {
+  std::mt19937 random(seed);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const double spacing = (grid.rest_positions_m.col(1) - grid.rest_positions_m.col(0)).norm();
+  *positions = grid.rest_positions_m;
+  velocities->resize(3, grid.particleCount());
+  for (Eigen::Index i = 0; i < positions->size(); ++i) {
+    positions->data()[i] += 0.3 * spacing * unit(random);
+    velocities->data()[i] = unit(random);
+  }
 }
 
 /// The explicit method and substeps the closed-form tests were written for (the paper's symplectic Euler

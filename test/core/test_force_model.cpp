@@ -19,19 +19,6 @@ SceneOptions springsOnly(int rows, int cols) {
   return o;
 }
 
-/// The rest grid jiggled by up to 30 % of a spacing, with random velocities: every spring stretched,
-/// compressed and moving.
-void perturb(const ClothGrid& grid, std::uint32_t seed, Eigen::Matrix3Xd* positions, Eigen::Matrix3Xd* velocities) {
-  std::mt19937 random(seed);
-  std::uniform_real_distribution<double> unit(-1.0, 1.0);
-  const double spacing = (grid.rest_positions_m.col(1) - grid.rest_positions_m.col(0)).norm();
-  *positions = grid.rest_positions_m;
-  velocities->resize(3, grid.particleCount());
-  for (Eigen::Index i = 0; i < positions->size(); ++i) {
-    positions->data()[i] += 0.3 * spacing * unit(random);
-    velocities->data()[i] = unit(random);
-  }
-}
 
 Eigen::Matrix3Xd edgeListSpringForces(const Simulation& sim, const Eigen::Matrix3Xd& x, const Eigen::Matrix3Xd& v) {
   Eigen::Matrix3Xd forces = Eigen::Matrix3Xd::Zero(3, x.cols());
@@ -48,7 +35,7 @@ TEST(StencilKernels, GiveTheEdgeListKernelsForcesToRoundingOnEveryGridShape) {
   for (const auto& [rows, cols] : std::vector<std::pair<int, int>>{{2, 2}, {3, 7}, {9, 4}, {20, 20}, {70, 65}}) {
     Simulation sim(springsOnly(rows, cols));
     Eigen::Matrix3Xd x, v, stencil;
-    perturb(sim.grid(), 17u + rows, &x, &v);
+    test::perturb(sim.grid(), 17u + rows, &x, &v);
     sim.forceModel().forces(x, v, 0.0, stencil);
     const Eigen::Matrix3Xd reference = edgeListSpringForces(sim, x, v);
     const double scale = reference.cwiseAbs().maxCoeff();
@@ -70,7 +57,7 @@ TEST(StencilKernels, TwoThreadsGiveTheSameBitsAsOne) {
   ASSERT_EQ(a.forceModel().threads(), 1);
   ASSERT_EQ(b.forceModel().threads(), 2);
   Eigen::Matrix3Xd x, v, fa, fb;
-  perturb(a.grid(), 23u, &x, &v);
+  test::perturb(a.grid(), 23u, &x, &v);
   a.forceModel().forces(x, v, 0.0, fa);
   b.forceModel().forces(x, v, 0.0, fb);
   EXPECT_TRUE(fa == fb);
@@ -92,7 +79,7 @@ TEST(StencilKernels, ASwitchedOffSpringKindExertsNothing) {
   o.springs[static_cast<int>(SpringKind::kShear)].enabled = false;
   Simulation sim(o);
   Eigen::Matrix3Xd x, v, stencil;
-  perturb(sim.grid(), 3u, &x, &v);
+  test::perturb(sim.grid(), 3u, &x, &v);
   sim.forceModel().forces(x, v, 0.0, stencil);
   const Eigen::Matrix3Xd reference = edgeListSpringForces(sim, x, v);
   EXPECT_LT((stencil - reference).cwiseAbs().maxCoeff(), 1e-12 * reference.cwiseAbs().maxCoeff());
@@ -111,7 +98,7 @@ TEST(ForceDifferential, MatchesCentralFiniteDifferencesOfTheForcesForStretchedSp
   ASSERT_TRUE(sim.grab(hand, &error)) << error;
   const Eigen::Matrix3Xd x = 1.2 * sim.grid().rest_positions_m;  // every spring 20 % long
   Eigen::Matrix3Xd v, dx, dv;
-  perturb(sim.grid(), 5u, &dx, &v);
+  test::perturb(sim.grid(), 5u, &dx, &v);
   dx -= sim.grid().rest_positions_m;
   dv = Eigen::Matrix3Xd::Random(3, x.cols());
   ClothForceModel& model = sim.forceModel();
@@ -139,7 +126,7 @@ TEST(ForceDifferential, SystemProductAndItsDiagonalBlocksAgreeWithTheDifferentia
   Simulation sim(o);
   ClothForceModel& model = sim.forceModel();
   Eigen::Matrix3Xd x, v;
-  perturb(sim.grid(), 11u, &x, &v);
+  test::perturb(sim.grid(), 11u, &x, &v);
   model.linearize(x, v, 0.0);
   const double h = 0.02;
   const Eigen::Matrix3Xd w = Eigen::Matrix3Xd::Random(3, x.cols());

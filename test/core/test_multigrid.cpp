@@ -18,19 +18,6 @@
 namespace cloth_sim::core {
 namespace {
 
-/// Positions jittered by 30 % of the spacing (stretched, compressed and skewed springs) and random
-/// velocities, so every term of the linearisation is exercised.
-void perturb(const ClothGrid& grid, std::uint32_t seed, Eigen::Matrix3Xd* positions, Eigen::Matrix3Xd* velocities) {
-  std::mt19937 random(seed);
-  std::uniform_real_distribution<double> unit(-1.0, 1.0);
-  const double spacing = (grid.rest_positions_m.col(1) - grid.rest_positions_m.col(0)).norm();
-  *positions = grid.rest_positions_m;
-  velocities->resize(3, grid.particleCount());
-  for (Eigen::Index i = 0; i < positions->size(); ++i) {
-    positions->data()[i] += 0.3 * spacing * unit(random);
-    velocities->data()[i] = unit(random);
-  }
-}
 
 /// A hanging cloth of rows x cols with every term of the system on (with grabBottom): all three spring
 /// kinds with damping, air damping, a grasp (its spring on the diagonal) and the two pinned corners.
@@ -80,7 +67,7 @@ TEST(MultigridAssembly, TheAssembledSystemTimesAVectorIsTheMatrixFreeSystemProdu
     grabBottom(sim);
     ClothForceModel& model = sim.forceModel();
     Eigen::Matrix3Xd x, v;
-    perturb(sim.grid(), 5u, &x, &v);
+    test::perturb(sim.grid(), 5u, &x, &v);
     model.linearize(x, v, 0.0);
     const double h = 0.02;
     GridBlockMatrix matrix;
