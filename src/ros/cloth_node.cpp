@@ -110,7 +110,7 @@ bool ClothNode::start(std::string* error) {
   // The mouse's commands join ~grasp's queue, so they are applied in order with the topic's.
   mouse_ = std::make_unique<MouseDrag>(pnh_.resolveName(Names::kMouseNamespace), [this](const cloth_sim::Grasp& grasp) {
     onGraspReceived(boost::make_shared<const cloth_sim::Grasp>(grasp));
-  });
+  }, [this](const Eigen::Vector3d& point_m) { return simulation_->nearestParticle(point_m); });
   reset_srv_ = pnh_.advertiseService(Names::kResetService, &ClothNode::onReset, this);
   pause_srv_ = pnh_.advertiseService(Names::kPauseService, &ClothNode::onPause, this);
   // ~step waits for its frames on a thread of its own, so the spin thread stays free to run them in chunks

@@ -13,7 +13,8 @@ Eigen::Vector3d toEigen(const geometry_msgs::Point& p) { return Eigen::Vector3d(
 
 }  // namespace
 
-MouseDrag::MouseDrag(const std::string& topic_ns, GraspSink grasp) : grasp_(std::move(grasp)) {
+MouseDrag::MouseDrag(const std::string& topic_ns, GraspSink grasp, ParticlePicker pick)
+    : grasp_(std::move(grasp)), pick_(std::move(pick)) {
   // No spin thread of its own: its feedback runs from ros::spin() like every other callback of the node.
   server_ = std::make_unique<interactive_markers::InteractiveMarkerServer>(topic_ns, "", false);
 }
@@ -51,7 +52,7 @@ cloth_sim::Grasp MouseDrag::graspMessage(const std_msgs::Header& header, std::ui
   grasp.header = header;
   grasp.id = kMouseGraspId;
   grasp.action = action;
-  grasp.particle = -1;  // the particle nearest to the target when the grab starts: the clicked one
+  grasp.particle = particle_;
   return grasp;
 }
 
@@ -63,6 +64,7 @@ void MouseDrag::onFeedback(const visualization_msgs::InteractiveMarkerFeedbackCo
     grab_point_m_ = toEigen(feedback->mouse_point);
     marker_at_grab_m_ = marker_m;
     dragging_ = true;
+    particle_ = pick_(grab_point_m_);
     cloth_sim::Grasp grab = graspMessage(feedback->header, cloth_sim::Grasp::GRAB);
     grab.target = feedback->mouse_point;
     grasp_(grab);

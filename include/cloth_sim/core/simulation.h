@@ -120,6 +120,8 @@ class Simulation {
   /// A grasped pin comes off its hook. False with *error (and nothing changed) for an out-of-range
   /// particle, non-finite/absurd values, or more than kMaxGrasps grasps.
   bool grab(const GraspRequest& request, std::string* error);
+  /// The particle nearest to point_m (world frame, m) in the current state.
+  int nearestParticle(const Eigen::Vector3d& point_m) const;
   /// Lets go; a pin no other grasp holds is hooked again where it was let go. False if no grasp has that id.
   bool release(std::uint32_t id);
   const std::vector<Grasp>& grasps() const { return inputs_.grasps; }
@@ -178,7 +180,6 @@ class Simulation {
   /// Runs one frame in the given number of substeps from the current state; adds the integrator's work
   /// to *steps.
   ContactStats integrateFrame(int substeps, StepReport* steps);
-  int nearestParticle(const Eigen::Vector3d& point_m) const;
 
   SceneOptions options_;
   ClothGrid grid_;

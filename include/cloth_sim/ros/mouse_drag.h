@@ -30,10 +30,12 @@ class MouseDrag {
   static constexpr double kShapeRefreshPeriod_s = 0.5;
 
   using GraspSink = std::function<void(const cloth_sim::Grasp&)>;
+  /// The particle nearest to a point in the marker's frame (the node's frame_id), as the cloth stands now.
+  using ParticlePicker = std::function<int(const Eigen::Vector3d&)>;
 
   /// Serves the marker under topic namespace `topic_ns` (its feedback topic is topic_ns + "/feedback");
-  /// `grasp` receives the grab, drag and release messages.
-  MouseDrag(const std::string& topic_ns, GraspSink grasp);
+  /// `grasp` receives the grab, drag and release messages; `pick` names the clicked particle.
+  MouseDrag(const std::string& topic_ns, GraspSink grasp, ParticlePicker pick);
 
   /// Redraws the marker as the cloth stands (at most every kShapeRefreshPeriod_s, never while dragging).
   void update(const core::Simulation& simulation, const std::string& frame_id, const ros::Time& now);
@@ -44,6 +46,10 @@ class MouseDrag {
   cloth_sim::Grasp graspMessage(const std_msgs::Header& header, std::uint8_t action) const;
 
   GraspSink grasp_;
+  ParticlePicker pick_;
+  /// The particle picked on mouse-down: every GRAB of the drag names it, so a queue that keeps only the
+  /// last command of an id (GraspCommandQueue) still holds the clicked particle.
+  int particle_ = -1;
   std::unique_ptr<interactive_markers::InteractiveMarkerServer> server_;
   bool dragging_ = false;
   /// Where the mouse went down (in the marker's frame) and where the marker stood then.
