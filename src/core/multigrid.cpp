@@ -115,20 +115,22 @@ void MultigridPreconditioner::factorLines(Level& level, bool rows) const {
       const int line = rows ? r : col;
       const int t = rows ? col : r;
       double* band = factors.data() + static_cast<std::ptrdiff_t>(line) * dofs * kBandWidth;
-      const bool p_free = level.free[p] != 0.0;
+      double* dof_rows = band + static_cast<std::ptrdiff_t>(3 * t) * kBandWidth;
+      // The band starts zero, so only the nonzero entries are written.
+      if (level.free[p] == 0.0) {  // a fixed dof: decoupled, identity
+        for (int i = 0; i < 3; ++i) dof_rows[i * kBandWidth] = 1.0;
+        continue;
+      }
       for (int d = 0; d <= GridBlockMatrix::kMaxReach && d <= t; ++d) {
         if (along[d] < 0) continue;
         const int q = rows ? p - d : p - d * a.cols();
-        const bool coupled = p_free && level.free[q] != 0.0;
+        if (level.free[q] == 0.0) continue;
         const double* block = a.block(p, along[d]);
         for (int i = 0; i < 3; ++i) {
-          for (int j = 0; j < 3; ++j) {
-            const int k = 3 * d + i - j;  // A(3t + i, 3(t - d) + j) sits k below the diagonal
-            if (k < 0) continue;
-            double value = coupled ? blockEntry(block, i, j) : 0.0;
-            if (!p_free && d == 0) value = i == j ? 1.0 : 0.0;  // a fixed dof: decoupled, identity
-            band[static_cast<std::ptrdiff_t>(3 * t + i) * kBandWidth + k] = value;
-          }
+          // A(3t + i, 3(t - d) + j) sits k = 3d + i - j below the diagonal; the upper triangle of the
+          // diagonal block (j > i when d = 0) is not stored.
+          const int last_j = d == 0 ? i : 2;
+          for (int j = 0; j <= last_j; ++j) dof_rows[i * kBandWidth + 3 * d + i - j] = blockEntry(block, i, j);
         }
       }
     }
