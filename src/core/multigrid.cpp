@@ -149,8 +149,7 @@ void MultigridPreconditioner::smoothLines(int level, bool rows, bool from_zero) 
   const int dofs = 3 * length;
   const int n = a.particles();
   if (from_zero) {
-    l.solution.setZero();
-    l.residual.setZero();  // A 0: the residual is the right-hand side
+    l.solution.setZero();  // A 0 = 0: the residual is the right-hand side, no product
   } else {
     product(level, l.solution, l.residual);
   }
@@ -161,7 +160,11 @@ void MultigridPreconditioner::smoothLines(int level, bool rows, bool from_zero) 
     double* v = l.line_scratch.data() + static_cast<std::ptrdiff_t>(line) * dofs;
     for (int t = 0; t < length; ++t) {
       const int p = rows ? line * a.cols() + t : t * a.cols() + line;
-      for (int i = 0; i < 3; ++i) v[3 * t + i] = l.free[p] * (l.rhs(i, p) - l.residual(i, p));
+      if (from_zero) {
+        for (int i = 0; i < 3; ++i) v[3 * t + i] = l.free[p] * l.rhs(i, p);
+      } else {
+        for (int i = 0; i < 3; ++i) v[3 * t + i] = l.free[p] * (l.rhs(i, p) - l.residual(i, p));
+      }
     }
     bandedSolve(dofs, factors.data() + static_cast<std::ptrdiff_t>(line) * dofs * kBandWidth, v);
     for (int t = 0; t < length; ++t) {
@@ -422,8 +425,7 @@ void MultigridPreconditioner::product(int level, const Eigen::Matrix3Xd& x, Eige
 void MultigridPreconditioner::restrictResidual(int level) {
   Level& fine = levels_[level];
   Level& coarse = levels_[level + 1];
-  product(level, fine.solution, fine.residual);
-  fine.residual = fine.rhs - fine.residual;
+  product(level, fine.solution, fine.residual);  // A x; the residual b - A x is formed in the sum below
   const Axis& rows = fine.row_axis;
   const Axis& cols = fine.col_axis;
   const int fine_cols = fine.matrix.cols();
@@ -435,7 +437,8 @@ void MultigridPreconditioner::restrictResidual(int level) {
       for (int kr = rows.child_begin[ci]; kr < rows.child_begin[ci + 1]; ++kr) {
         for (int kc = cols.child_begin[cj]; kc < cols.child_begin[cj + 1]; ++kc) {
           const int p = rows.child[kr] * fine_cols + cols.child[kc];
-          sum += (rows.child_weight[kr] * cols.child_weight[kc] * fine.free[p]) * fine.residual.col(p);
+          const double weight = rows.child_weight[kr] * cols.child_weight[kc] * fine.free[p];
+          sum += weight * (fine.rhs.col(p) - fine.residual.col(p));
         }
       }
       coarse.rhs.col(j) = coarse.free[j] * sum;
