@@ -105,29 +105,39 @@ void MultigridPreconditioner::factorLines(Level& level, bool rows) const {
   int along[GridBlockMatrix::kMaxReach + 1];
   for (int d = 0; d <= GridBlockMatrix::kMaxReach; ++d) along[d] = rows ? a.offsetIndex(0, -d) : a.offsetIndex(-d, 0);
   const int n = a.particles();
+  // The bands are filled walking the particles in memory order (a column's particles lie a whole grid
+  // row of blocks apart: reading them column by column missed the cache on nearly every block), then
+  // factored line by line. The fill only copies, so its order does not change any bits.
 #pragma omp parallel for schedule(static) num_threads(threads_) if (runsInParallel(n, threads_))
-  for (int line = 0; line < lines; ++line) {
-    double* band = factors.data() + static_cast<std::ptrdiff_t>(line) * dofs * kBandWidth;
-    for (int t = 0; t < length; ++t) {
-      const int p = rows ? line * a.cols() + t : t * a.cols() + line;
-      const bool p_free = level.free[p] != 0.0;
+  for (int r = 0; r < a.rows(); ++r) {
+    for (int col = 0; col < a.cols(); ++col) {
+      const int p = r * a.cols() + col;
+      const int line = rows ? r : col;
+      const int t = rows ? col : r;
+      double* band = factors.data() + static_cast<std::ptrdiff_t>(line) * dofs * kBandWidth;
+      double* dof_rows = band + static_cast<std::ptrdiff_t>(3 * t) * kBandWidth;
+      // The band starts zero, so only the nonzero entries are written.
+      if (level.free[p] == 0.0) {  // a fixed dof: decoupled, identity
+        for (int i = 0; i < 3; ++i) dof_rows[i * kBandWidth] = 1.0;
+        continue;
+      }
       for (int d = 0; d <= GridBlockMatrix::kMaxReach && d <= t; ++d) {
         if (along[d] < 0) continue;
         const int q = rows ? p - d : p - d * a.cols();
-        const bool coupled = p_free && level.free[q] != 0.0;
+        if (level.free[q] == 0.0) continue;
         const double* block = a.block(p, along[d]);
         for (int i = 0; i < 3; ++i) {
-          for (int j = 0; j < 3; ++j) {
-            const int k = 3 * d + i - j;  // A(3t + i, 3(t - d) + j) sits k below the diagonal
-            if (k < 0) continue;
-            double value = coupled ? blockEntry(block, i, j) : 0.0;
-            if (!p_free && d == 0) value = i == j ? 1.0 : 0.0;  // a fixed dof: decoupled, identity
-            band[static_cast<std::ptrdiff_t>(3 * t + i) * kBandWidth + k] = value;
-          }
+          // A(3t + i, 3(t - d) + j) sits k = 3d + i - j below the diagonal; the upper triangle of the
+          // diagonal block (j > i when d = 0) is not stored.
+          const int last_j = d == 0 ? i : 2;
+          for (int j = 0; j <= last_j; ++j) dof_rows[i * kBandWidth + 3 * d + i - j] = blockEntry(block, i, j);
         }
       }
     }
-    bandedCholesky(dofs, band);
+  }
+#pragma omp parallel for schedule(static) num_threads(threads_) if (runsInParallel(n, threads_))
+  for (int line = 0; line < lines; ++line) {
+    bandedCholesky(dofs, factors.data() + static_cast<std::ptrdiff_t>(line) * dofs * kBandWidth);
   }
 }
 
@@ -139,8 +149,7 @@ void MultigridPreconditioner::smoothLines(int level, bool rows, bool from_zero) 
   const int dofs = 3 * length;
   const int n = a.particles();
   if (from_zero) {
-    l.solution.setZero();
-    l.residual.setZero();  // A 0: the residual is the right-hand side
+    l.solution.setZero();  // A 0 = 0: the residual is the right-hand side, no product
   } else {
     product(level, l.solution, l.residual);
   }
@@ -151,7 +160,11 @@ void MultigridPreconditioner::smoothLines(int level, bool rows, bool from_zero) 
     double* v = l.line_scratch.data() + static_cast<std::ptrdiff_t>(line) * dofs;
     for (int t = 0; t < length; ++t) {
       const int p = rows ? line * a.cols() + t : t * a.cols() + line;
-      for (int i = 0; i < 3; ++i) v[3 * t + i] = l.free[p] * (l.rhs(i, p) - l.residual(i, p));
+      if (from_zero) {
+        for (int i = 0; i < 3; ++i) v[3 * t + i] = l.free[p] * l.rhs(i, p);
+      } else {
+        for (int i = 0; i < 3; ++i) v[3 * t + i] = l.free[p] * (l.rhs(i, p) - l.residual(i, p));
+      }
     }
     bandedSolve(dofs, factors.data() + static_cast<std::ptrdiff_t>(line) * dofs * kBandWidth, v);
     for (int t = 0; t < length; ++t) {
@@ -218,11 +231,86 @@ void MultigridPreconditioner::buildCoarse(const Level& fine, Level& coarse) cons
   coarse.free.resize(count);
   // Galerkin product P^T (S A S) P, one coarse row at a time (so each entry is summed by one thread in a
   // fixed order): for each fine child p of coarse particle I and each fine neighbour q of p, the block
-  // A_pq goes to every coarse parent J of q with weight P_pI P_qJ (zero for constrained p or q).
+  // A_pq goes to every coarse parent J of q with weight P_pI P_qJ (zero for constrained p or q). Only the
+  // upper half of the stencil (J at or after I in grid order) is summed: the operator is symmetric with
+  // symmetric blocks (C_IJ = C_JI), so the lower half is copied from it afterwards, which halves the
+  // set-up's largest cost and makes the coarse operators exactly symmetric.
+  //
+  // Away from the edges the interpolation weights repeat, so the terms of one coarse particle's upper
+  // half are one fixed list (target offset, child, fine offset, weight), built once here and summed
+  // target by target in registers; the edges keep the general scatter below.
+  struct GalerkinTerm {
+    int target;           ///< coarse stencil index (upper half)
+    std::ptrdiff_t p;     ///< fine child p, relative to the coarse particle's own fine particle
+    int offset;           ///< fine stencil index of the coupling p -> q
+    std::ptrdiff_t q;     ///< q - p
+    double weight;        ///< P_pI P_qJ
+  };
+  std::vector<GalerkinTerm> terms;
+  const bool patterned = rows.coarse != rows.fine && cols.coarse != cols.fine;
+  if (patterned) {
+    // Interior interpolation along one side, relative to the coarse particle's fine index 2i: an even
+    // relative index e follows e / 2 with weight 1, an odd one takes half of each neighbour.
+    const auto parents = [](int e, int* parent, double* weight) {
+      if (e % 2 == 0) {
+        parent[0] = e / 2;
+        weight[0] = 1.0;
+        return 1;
+      }
+      parent[0] = (e - 1) / 2;
+      parent[1] = (e + 1) / 2;
+      weight[0] = weight[1] = 0.5;
+      return 2;
+    };
+    for (int a = -1; a <= 1; ++a) {
+      for (int b = -1; b <= 1; ++b) {
+        const double wp = (a == 0 ? 1.0 : 0.5) * (b == 0 ? 1.0 : 0.5);
+        for (int o = 0; o < offset_count; ++o) {
+          int row_parents[2], col_parents[2];
+          double row_weights[2], col_weights[2];
+          const int row_count = parents(a + offsets[o].dr, row_parents, row_weights);
+          const int col_count = parents(b + offsets[o].dc, col_parents, col_weights);
+          for (int i = 0; i < row_count; ++i) {
+            for (int j = 0; j < col_count; ++j) {
+              const int target = fullStencilIndex(row_parents[i], col_parents[j]);
+              if (target < c.diagonalIndex()) continue;
+              terms.push_back({target, static_cast<std::ptrdiff_t>(a) * fine_cols + b, o,
+                               static_cast<std::ptrdiff_t>(offsets[o].dr) * fine_cols + offsets[o].dc,
+                               wp * row_weights[i] * col_weights[j]});
+            }
+          }
+        }
+      }
+    }
+    std::stable_sort(terms.begin(), terms.end(),
+                     [](const GalerkinTerm& x, const GalerkinTerm& y) { return x.target < y.target; });
+  }
+  // Coarse index i is interior when every fine index its terms touch, 2i - 1 - kMaxReach to
+  // 2i + 1 + kMaxReach, has the interior interpolation (an even side's last fine particle does not).
+  const auto interior = [](int i, const Axis& axis) {
+    return 2 * i - 1 - GridBlockMatrix::kMaxReach >= 0 && 2 * i + 1 + GridBlockMatrix::kMaxReach <= axis.fine - 2;
+  };
   forEachChunk(count, threads_, [&](Eigen::Index begin, Eigen::Index end) {
     for (Eigen::Index coarse_index = begin; coarse_index < end; ++coarse_index) {
       const int ci = static_cast<int>(coarse_index) / cols.coarse;
       const int cj = static_cast<int>(coarse_index) % cols.coarse;
+      if (patterned && interior(ci, rows) && interior(cj, cols)) {
+        const std::ptrdiff_t own = static_cast<std::ptrdiff_t>(2 * ci) * fine_cols + 2 * cj;
+        double* out = c.block(static_cast<int>(coarse_index), 0);
+        std::size_t k = 0;
+        while (k < terms.size()) {
+          const int target = terms[k].target;
+          double sum[GridBlockMatrix::kBlockEntries] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0};
+          for (; k < terms.size() && terms[k].target == target; ++k) {
+            const GalerkinTerm& term = terms[k];
+            const std::ptrdiff_t p = own + term.p;
+            const double w = term.weight * fine.free[p] * fine.free[p + term.q];
+            const double* b = a.block(static_cast<int>(p), term.offset);
+            for (int e = 0; e < GridBlockMatrix::kBlockEntries; ++e) sum[e] += w * b[e];
+          }
+          std::copy_n(sum, GridBlockMatrix::kBlockEntries, out + target * GridBlockMatrix::kBlockEntries);
+        }
+      } else {
       for (int kr = rows.child_begin[ci]; kr < rows.child_begin[ci + 1]; ++kr) {
         const int fr = rows.child[kr];
         for (int kc = cols.child_begin[cj]; kc < cols.child_begin[cj + 1]; ++kc) {
@@ -241,7 +329,9 @@ void MultigridPreconditioner::buildCoarse(const Level& fine, Level& coarse) cons
             const int col_parents[2] = {cols.parent[qc], cols.parent2[qc]};
             const double col_weights[2] = {cols.weight[qc], cols.weight2[qc]};
             for (int i = 0; i < 2 && row_parents[i] >= 0; ++i) {
+              if (row_parents[i] < ci) continue;  // the lower half: mirrored below
               for (int j = 0; j < 2 && col_parents[j] >= 0; ++j) {
+                if (row_parents[i] == ci && col_parents[j] < cj) continue;
                 const double w = wp * row_weights[i] * col_weights[j];
                 double* target =
                     c.block(static_cast<int>(coarse_index), fullStencilIndex(row_parents[i] - ci, col_parents[j] - cj));
@@ -251,6 +341,7 @@ void MultigridPreconditioner::buildCoarse(const Level& fine, Level& coarse) cons
           }
         }
       }
+      }
       // A coarse particle all of whose children are constrained has an empty row: it stays fixed.
       double* diagonal = c.block(static_cast<int>(coarse_index), c.diagonalIndex());
       const bool moves = diagonal[0] + diagonal[1] + diagonal[2] > 0.0;
@@ -258,6 +349,23 @@ void MultigridPreconditioner::buildCoarse(const Level& fine, Level& coarse) cons
       if (!moves) {
         std::fill_n(diagonal, GridBlockMatrix::kBlockEntries, 0.0);
         diagonal[0] = diagonal[1] = diagonal[2] = 1.0;
+      }
+    }
+  });
+  // The lower half: C_I,I+d = C_I+d,I, offset d's mirror -d sits at the reversed index of the row-major
+  // full stencil. Reads only upper-half blocks, which the pass above finished.
+  const int stencil = static_cast<int>(c.offsets().size());
+  const int diagonal_index = c.diagonalIndex();
+  forEachChunk(count, threads_, [&](Eigen::Index begin, Eigen::Index end) {
+    for (Eigen::Index coarse_index = begin; coarse_index < end; ++coarse_index) {
+      const int ci = static_cast<int>(coarse_index) / cols.coarse;
+      const int cj = static_cast<int>(coarse_index) % cols.coarse;
+      for (int o = 0; o < diagonal_index; ++o) {
+        const int qr = ci + c.offsets()[o].dr;
+        const int qc = cj + c.offsets()[o].dc;
+        if (qr < 0 || qr >= rows.coarse || qc < 0 || qc >= cols.coarse) continue;
+        const double* mirror = c.block(qr * cols.coarse + qc, stencil - 1 - o);
+        std::copy_n(mirror, GridBlockMatrix::kBlockEntries, c.block(static_cast<int>(coarse_index), o));
       }
     }
   });
@@ -317,8 +425,7 @@ void MultigridPreconditioner::product(int level, const Eigen::Matrix3Xd& x, Eige
 void MultigridPreconditioner::restrictResidual(int level) {
   Level& fine = levels_[level];
   Level& coarse = levels_[level + 1];
-  product(level, fine.solution, fine.residual);
-  fine.residual = fine.rhs - fine.residual;
+  product(level, fine.solution, fine.residual);  // A x; the residual b - A x is formed in the sum below
   const Axis& rows = fine.row_axis;
   const Axis& cols = fine.col_axis;
   const int fine_cols = fine.matrix.cols();
@@ -330,7 +437,8 @@ void MultigridPreconditioner::restrictResidual(int level) {
       for (int kr = rows.child_begin[ci]; kr < rows.child_begin[ci + 1]; ++kr) {
         for (int kc = cols.child_begin[cj]; kc < cols.child_begin[cj + 1]; ++kc) {
           const int p = rows.child[kr] * fine_cols + cols.child[kc];
-          sum += (rows.child_weight[kr] * cols.child_weight[kc] * fine.free[p]) * fine.residual.col(p);
+          const double weight = rows.child_weight[kr] * cols.child_weight[kc] * fine.free[p];
+          sum += weight * (fine.rhs.col(p) - fine.residual.col(p));
         }
       }
       coarse.rhs.col(j) = coarse.free[j] * sum;

@@ -64,7 +64,8 @@ class MultigridPreconditioner final : public Preconditioner {
     GridBlockMatrix matrix;                                   ///< the operator (level 0: S A S's blocks)
     Eigen::VectorXd free;                                     ///< 1 for a dof that may move, else 0
     Axis row_axis, col_axis;                                  ///< transfer to the next coarser level
-    Eigen::Matrix3Xd rhs, solution, residual;
+    Eigen::Matrix3Xd rhs, solution;
+    Eigen::Matrix3Xd residual;  ///< scratch: A solution (the residual is formed where it is read)
     /// Banded Cholesky factors of every row's and every column's own couplings, line after line
     /// (the line smoother), and a scratch field in line order.
     std::vector<double> row_factors, col_factors;
