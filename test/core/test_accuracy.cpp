@@ -230,16 +230,23 @@ TEST(Accuracy, LargestStableStepFindsTheEdgeOfAStableInterval) {
   EXPECT_EQ(largestStableStep([](double) { return true; }, 1e-3, 10.0), 10.0);
 }
 
+/// Runs a shell command and returns what it printed; *status is pclose's (-1 if it could not start).
+std::string runCommand(const std::string& command, int* status) {
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return "could not run: " + command;
+  std::string output;
+  char buffer[4096];
+  while (std::fgets(buffer, sizeof(buffer), pipe) != nullptr) output += buffer;
+  *status = pclose(pipe);
+  return output;
+}
+
 TEST(ClothBenchAccuracy, PrintsTheReferenceEvidenceATableAndARecommendationOnATinyScene) {
   const std::string command = std::string(CLOTH_BENCH_EXECUTABLE) +
                               " --accuracy --scene hanging --set rows=4 --set cols=4 --seconds 0.1 --min-timing 0"
                               " --integrators symplectic_euler,rk4 --substeps-list 4,16 2>/dev/null";
-  FILE* pipe = popen(command.c_str(), "r");
-  ASSERT_NE(pipe, nullptr) << command;
-  std::string output;
-  char buffer[4096];
-  while (std::fgets(buffer, sizeof(buffer), pipe) != nullptr) output += buffer;
-  const int status = pclose(pipe);
+  int status = -1;
+  const std::string output = runCommand(command, &status);
   EXPECT_EQ(status, 0) << command << "\n" << output;
   EXPECT_NE(output.find("reference: rk4"), std::string::npos) << output;
   EXPECT_NE(output.find("converged"), std::string::npos) << output;
@@ -253,12 +260,8 @@ TEST(ClothBenchSolverSweep, PrintsTheReferenceTheToleranceAndCapRowsAndARecommen
   const std::string command = std::string(CLOTH_BENCH_EXECUTABLE) +
                               " --solver-sweep --scene hanging --dynamic --set rows=5 --set cols=5 --seconds 0.1"
                               " --min-timing 0 --tolerances 1e-2,1e-3 --caps 3,none 2>/dev/null";
-  FILE* pipe = popen(command.c_str(), "r");
-  ASSERT_NE(pipe, nullptr) << command;
-  std::string output;
-  char buffer[4096];
-  while (std::fgets(buffer, sizeof(buffer), pipe) != nullptr) output += buffer;
-  const int status = pclose(pipe);
+  int status = -1;
+  const std::string output = runCommand(command, &status);
   EXPECT_EQ(status, 0) << command << "\n" << output;
   EXPECT_NE(output.find("released flat 5x5"), std::string::npos) << output;
   EXPECT_NE(output.find("reference       1e-09  none"), std::string::npos) << output;
@@ -271,12 +274,8 @@ TEST(ClothBenchSolverSweep, PrintsTheReferenceTheToleranceAndCapRowsAndARecommen
 
 TEST(ClothBenchSolverSweep, RefusesACapThatIsNotACount) {
   const std::string command = std::string(CLOTH_BENCH_EXECUTABLE) + " --solver-sweep --caps 10,lots 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  ASSERT_NE(pipe, nullptr) << command;
-  std::string output;
-  char buffer[4096];
-  while (std::fgets(buffer, sizeof(buffer), pipe) != nullptr) output += buffer;
-  const int status = pclose(pipe);
+  int status = -1;
+  const std::string output = runCommand(command, &status);
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << output;
   EXPECT_NE(output.find("--caps: 'lots'"), std::string::npos) << output;
 }
