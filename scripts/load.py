@@ -327,25 +327,33 @@ def free_port():
         return probe.getsockname()[1]
 
 
-def start_own_graph(rows, cols, log):
-    """A rosmaster on a free port and a cloth_node on the hanging scene; returns (master, node) processes."""
+def start_master(log, caller, ready_s=READY_S):
+    """A rosmaster on a free port, ROS_MASTER_URI pointing at it; returns its process once it answers."""
     port = free_port()
     os.environ["ROS_MASTER_URI"] = "http://localhost:%d" % port
     master = subprocess.Popen(["rosmaster", "--core", "-p", str(port)], stdout=log, stderr=subprocess.STDOUT)
-    proxy = master_proxy()
+    proxy = xmlrpc.client.ServerProxy(os.environ["ROS_MASTER_URI"])
 
     def answers():
         try:
-            return proxy.getPid(CALLER)[0] == 1
+            return proxy.getPid(caller)[0] == 1
         except OSError:
             return False
-    if not wait_for(answers, READY_S):
+    if not wait_for(answers, ready_s):
+        master.kill()
+        master.wait()
         raise RuntimeError("rosmaster did not start")
+    return master
+
+
+def start_own_graph(rows, cols, log):
+    """A rosmaster on a free port and a cloth_node on the hanging scene; returns (master, node) processes."""
+    master = start_master(log, CALLER)
     binary = subprocess.run(["catkin_find", "--first-only", "--libexec", "cloth_sim", "cloth_node"],
                             stdout=subprocess.PIPE, universal_newlines=True, check=True).stdout.strip()
     node = subprocess.Popen([binary, "__name:=cloth_node", "_scene:=hanging", "_rows:=%d" % rows, "_cols:=%d" % cols],
                             stdout=log, stderr=subprocess.STDOUT)
-    if not wait_for(lambda: proxy.lookupNode(CALLER, "/cloth_node")[0] == 1 or node.poll() is not None, READY_S):
+    if not wait_for(lambda: master_proxy().lookupNode(CALLER, "/cloth_node")[0] == 1 or node.poll() is not None, READY_S):
         raise RuntimeError("cloth_node did not register")
     return master, node
 

@@ -31,7 +31,7 @@ import time
 import xmlrpc.client
 
 # Its master-and-node plumbing is load.py's (the scripts run from this folder).
-from load import free_port, wait_for
+from load import start_master, wait_for
 
 CALLER = "/cloth_rates"
 READY_S = 60.0        # a 128x128 scene builds and its node registers within this
@@ -234,22 +234,12 @@ def main():
     scenes = [s for s in args.scenes.split(",") if s]
     sizes = [int(s) for s in args.sizes.split(",") if s]
 
-    port = free_port()
-    os.environ["ROS_MASTER_URI"] = "http://localhost:%d" % port
     log = open(os.devnull, "w")
     folder = tempfile.mkdtemp(prefix="cloth_rates_")
-    master = subprocess.Popen(["rosmaster", "--core", "-p", str(port)], stdout=log, stderr=subprocess.STDOUT)
+    master = start_master(log, CALLER, READY_S)
     runs = []
     try:
         proxy = xmlrpc.client.ServerProxy(os.environ["ROS_MASTER_URI"])
-
-        def answers():
-            try:
-                return proxy.getPid(CALLER)[0] == 1
-            except OSError:
-                return False
-        if not wait_for(answers, READY_S):
-            raise RuntimeError("rosmaster did not start")
         import rospy
         rospy.init_node("cloth_rates", anonymous=True, disable_signals=True)
         diagnostics = Diagnostics()
