@@ -142,12 +142,7 @@ bool ClothNode::start(std::string* error) {
   window_start_ = std::chrono::steady_clock::now();
 
   if (!parent_frame.empty()) {
-    geometry_msgs::TransformStamped identity;
-    identity.header.stamp = ros::Time::now();
-    identity.header.frame_id = parent_frame;
-    identity.child_frame_id = frame_id_;
-    identity.transform.rotation.w = 1.0;
-    static_broadcaster_.sendTransform(identity);
+    static_broadcaster_.sendTransform(identityTransform(parent_frame, frame_id_, ros::Time::now()));
   }
 
   timer_ = pnh_.createTimer(ros::Duration(simulation_->options().frameDuration_s()), &ClothNode::onTimer, this);

@@ -54,12 +54,7 @@ class ClothViewer {
         return false;
       }
       // Static: valid at every time, so also at a looping bag's /clock.
-      geometry_msgs::TransformStamped identity;
-      identity.header.stamp = ros::Time::now();
-      identity.header.frame_id = parent_frame;
-      identity.child_frame_id = frame_id;
-      identity.transform.rotation.w = 1.0;
-      static_broadcaster_.sendTransform(identity);
+      static_broadcaster_.sendTransform(cloth_sim::identityTransform(parent_frame, frame_id, ros::Time::now()));
       ROS_INFO("cloth_viewer: tf %s -> %s (static identity)", parent_frame.c_str(), frame_id.c_str());
     }
     if (!publish_mesh_) return true;

@@ -183,6 +183,16 @@ cloth_sim::ClothState toStateMessage(const core::Simulation& simulation, const s
   return message;
 }
 
+geometry_msgs::TransformStamped identityTransform(const std::string& parent_frame, const std::string& child_frame,
+                                                  const ros::Time& stamp) {
+  geometry_msgs::TransformStamped identity;
+  identity.header.stamp = stamp;
+  identity.header.frame_id = parent_frame;
+  identity.child_frame_id = child_frame;
+  identity.transform.rotation.w = 1.0;
+  return identity;
+}
+
 std::vector<geometry_msgs::TransformStamped> toSphereTransforms(const core::Simulation& simulation,
                                                                 const std::string& frame_id, const ros::Time& stamp) {
   std::vector<geometry_msgs::TransformStamped> transforms;

@@ -78,6 +78,15 @@ std::string substepsText(const core::SceneOptions& scene) {
   return scene.autoSubsteps() ? std::string(core::kAutoSubstepsName) : std::to_string(scene.substeps);
 }
 
+std::string stabilityText(bool stable, const SpanRun& run) {
+  std::ostringstream out;
+  out << (stable ? "ok" : "DIVERGED " + run.stopped);
+  if (run.rolled_back > 0 || run.recomputed > 0) {
+    out << " (rolled back " << run.rolled_back << ", recomputed " << run.recomputed << ")";
+  }
+  return out.str();
+}
+
 std::string formatNumber(double value, int digits) {
   if (std::isnan(value)) return "nan";
   if (std::isinf(value)) return value > 0 ? "inf" : "-inf";

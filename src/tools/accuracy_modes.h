@@ -76,6 +76,8 @@ bool buildToolScene(const ToolOptions& options, const std::optional<GridSize>& g
 
 std::string gridText(int rows, int cols);
 std::string substepsText(const core::SceneOptions& scene);
+/// "ok" or "DIVERGED <why>", with the guard's rollbacks and recomputations when there were any.
+std::string stabilityText(bool stable, const SpanRun& run);
 /// `digits` significant digits; "nan", "inf", "-inf" spelt out.
 std::string formatNumber(double value, int digits = 3);
 /// A CSV field, quoted where it holds a comma, quote or newline.

@@ -83,15 +83,6 @@ SettingResult runSetting(const Setting& setting, int frames, const Trajectory& r
   return result;
 }
 
-std::string stabilityText(const SettingResult& r) {
-  std::ostringstream out;
-  out << (r.stable ? "ok" : "DIVERGED " + r.run.stopped);
-  if (r.run.rolled_back > 0 || r.run.recomputed > 0) {
-    out << " (rolled back " << r.run.rolled_back << ", recomputed " << r.run.recomputed << ")";
-  }
-  return out.str();
-}
-
 std::vector<CostError> costErrors(const std::vector<SettingResult>& results) {
   std::vector<CostError> points;
   for (const SettingResult& r : results) points.push_back({r.cost_ms_per_s, r.error.max_m, r.stable});
@@ -159,7 +150,7 @@ void printTable(std::ostream& out, const std::vector<SettingResult>& results) {
         << formatNumber(kRealTimeCost_ms_per_s / r.cost_ms_per_s) << std::setw(11)
         << (r.stable ? formatNumber(r.error.rms_m) : "-") << std::setw(11)
         << (r.stable ? formatNumber(r.error.max_m) : "-") << std::setw(11) << formatNumber(r.run.max_strain)
-        << (r.pareto ? "  *     " : "        ") << "  " << stabilityText(r) << "\n";
+        << (r.pareto ? "  *     " : "        ") << "  " << stabilityText(r.stable, r.run) << "\n";
   }
 }
 

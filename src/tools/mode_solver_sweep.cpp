@@ -46,15 +46,6 @@ std::vector<SweepRow> sweepRows(const ToolOptions& options, const core::SceneOpt
   return rows;
 }
 
-std::string stabilityText(const SolverMeasurement& m) {
-  std::ostringstream out;
-  out << (m.stable ? "ok" : "DIVERGED " + m.run.stopped);
-  if (m.run.rolled_back > 0 || m.run.recomputed > 0) {
-    out << " (rolled back " << m.run.rolled_back << ", recomputed " << m.run.recomputed << ")";
-  }
-  return out.str();
-}
-
 void printTable(std::ostream& out, const std::vector<SweepRow>& rows, const std::vector<SolverMeasurement>& results) {
   out << std::left << std::setw(11) << "sweep" << std::right << std::setw(10) << "tolerance" << std::setw(6) << "cap"
       << std::setw(10) << "ms/frame" << std::setw(11) << "CG it/step" << std::setw(11) << "converged"
@@ -68,7 +59,7 @@ void printTable(std::ostream& out, const std::vector<SweepRow>& rows, const std:
         << formatNumber(kPercent * m.converged_share) + " %" << std::setw(11) << formatNumber(m.error.max_m)
         << std::setw(13) << formatNumber(m.final_max_error_m) << std::setw(12)
         << formatNumber(kPercent * m.run.max_strain) + " %" << std::setw(12) << formatNumber(m.mean_substeps)
-        << "  " << stabilityText(m) << "\n";
+        << "  " << stabilityText(m.stable, m.run) << "\n";
   }
 }
 

@@ -44,6 +44,11 @@ cloth_sim::ClothState toStateMessage(const core::Simulation& simulation, const s
 visualization_msgs::MarkerArray toColliderMarkers(const core::Simulation& simulation, const std::string& frame_id,
                                                   const ros::Time& stamp);
 
+/// child_frame at parent_frame's origin, unrotated: the static tf that places the cloth's frame in a
+/// parent frame (the node's and the viewer's ~parent_frame_id).
+geometry_msgs::TransformStamped identityTransform(const std::string& parent_frame, const std::string& child_frame,
+                                                  const ros::Time& stamp);
+
 /// tf frames sphere_<i>, children of frame_id, at the spheres' current centres.
 std::vector<geometry_msgs::TransformStamped> toSphereTransforms(const core::Simulation& simulation,
                                                                 const std::string& frame_id, const ros::Time& stamp);
