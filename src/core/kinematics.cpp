@@ -149,6 +149,12 @@ void Kinematics::setScene(const SceneOptions& options, const ClothInputs& inputs
     sphere_bodies_.push_back(addBody({static_cast<std::uint32_t>(bodies_.size()), "sphere " + std::to_string(s),
                                       options.colliders.spheres[s].motion()}));
   }
+  for (const Gripper& gripper : inputs.grippers) {
+    if (gripper.particles.empty()) continue;  // every particle slipped out: nothing left to carry
+    const std::size_t body = addBody({gripper.id, "gripper " + std::to_string(gripper.id) + " (" + gripper.frame + ")",
+                                      gripper.track});
+    attach({body, gripper.particles, gripper.offsets_m});
+  }
 }
 
 void Kinematics::maskConstrained(Eigen::VectorXd& inverse_mass_per_kg) const {

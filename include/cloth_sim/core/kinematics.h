@@ -142,7 +142,8 @@ class Kinematics {
   static ScriptedMotion hookMotion(const SceneOptions& options, const ClothInputs& inputs, std::size_t pin);
   /// Rebuilds the bodies of today's scenes from their options and inputs: a hook per pin that no grasp
   /// holds (the scene's swing and travel, the hook from inputs.pin_anchors_m), holding its particle at
-  /// offset zero, then a body per sphere collider (in options.colliders.spheres order, see sphereBody).
+  /// offset zero, then a body per sphere collider (in options.colliders.spheres order, see sphereBody),
+  /// then a body per gripper holding particles (inputs.grippers order), moving on the gripper's track.
   void setScene(const SceneOptions& options, const ClothInputs& inputs);
   /// The body of options.colliders.spheres[sphere] after setScene.
   std::size_t sphereBody(std::size_t sphere) const { return sphere_bodies_[sphere]; }
