@@ -417,8 +417,12 @@ TEST(Restore, RestoreStateChecksItsInputAndKeepsOptionsAndInputs) {
   EXPECT_TRUE(sameSnapshot(before, sim.snapshot()));
 
   for (int k = 0; k < 3; ++k) sim.advanceFrame();
+  // Advancing moves the inputs on too (a gripper no one moved holds still from the new frame on): only
+  // the state goes back.
+  SimulationSnapshot expected = sim.snapshot();
+  expected.state = before.state;
   ASSERT_TRUE(sim.restoreState(before.state, &error)) << error;
-  EXPECT_TRUE(sameSnapshot(before, sim.snapshot())) << "restoreState must bring back the state, inputs untouched";
+  EXPECT_TRUE(sameSnapshot(expected, sim.snapshot())) << "restoreState must bring back the state, inputs untouched";
 }
 
 // ---- The scene writer ------------------------------------------------------------------------------
