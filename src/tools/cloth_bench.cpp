@@ -7,6 +7,7 @@
 //
 // The scene is built exactly as the node builds it: the scene file, then every override through the scene-file
 // parser (applySceneYaml) and one validation (validateSceneOptions), so a key means here what it means there.
+#include "cloth_sim/core/constants.h"
 #include "cloth_sim/core/options.h"
 #include "cloth_sim/core/simulation.h"
 #include "cloth_sim/core/state.h"
@@ -31,6 +32,7 @@
 #include <iterator>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -92,6 +94,8 @@ Times a cloth scene and prints one JSON line on stdout.
   --stop-above-strain X  end the run at the first frame whose structural strain exceeds X, that rolls back or
                          that is not finite: the setting has failed, and a diverging frame costs the guard up
                          to 15 times the substeps (not used with --bullet)
+  --grippers N           hold the cloth with N grippers (Simulation::attachGripper) along its top row, each
+                         holding one particle and circling 5 cm at 1 Hz: the cost of grippers (0: none)
   --help                 this text
 
 Other modes (each with its own --help): --accuracy (speed against accuracy of every integrator and substep count
@@ -121,6 +125,7 @@ struct BenchOptions {
   bool bullet = false;
   std::optional<int> bullet_iterations;  ///< set only by --iterations
   std::optional<double> stop_above_strain;  ///< set only by --stop-above-strain
+  int grippers = 0;                         ///< --grippers N
   bool help = false;
 };
 
@@ -141,7 +146,7 @@ constexpr std::pair<const char*, const char*> kSceneKeyFlags[] = {
 /// The other flags that take a value.
 constexpr const char* kValueFlags[] = {"--scene",      "--scenes-dir", "--set",
                                        "--frames",     "--warmup",     "--iterations",
-                                       "--stop-above-strain"};
+                                       "--stop-above-strain", "--grippers"};
 
 /// The scene key a shorthand flag stands for, or nullptr.
 const char* sceneKeyOf(const std::string& flag) {
@@ -189,6 +194,8 @@ void parseCommandLine(int argc, char** argv, BenchOptions* options, std::vector<
       cloth_sim::bench::parseSceneSetting(value, &options->overrides, errors);
     } else if (flag == "--frames") {
       parseCount(flag, value, 1, &options->frames, errors);
+    } else if (flag == "--grippers") {
+      parseCount(flag, value, 0, &options->grippers, errors);
     } else if (flag == "--warmup") {
       parseCount(flag, value, 0, &options->warmup_frames, errors);
     } else if (flag == "--iterations") {
@@ -204,6 +211,11 @@ void parseCommandLine(int argc, char** argv, BenchOptions* options, std::vector<
     }
   }
 
+  if (options->grippers > 0 && options->bullet) errors->push_back("--grippers: Bullet's run has no grippers");
+  if (options->grippers > static_cast<int>(core::Simulation::kMaxGrippers)) {
+    errors->push_back("--grippers " + std::to_string(options->grippers) + ": at most " +
+                      std::to_string(core::Simulation::kMaxGrippers));
+  }
   if (options->stop_above_strain && options->bullet) {
     errors->push_back("--stop-above-strain: Bullet's run cannot stop early (it checks its strain after the run)");
   }
@@ -283,9 +295,49 @@ std::string stopReason(const BenchOptions& options, const core::FrameReport& rep
   return reason.str();
 }
 
+/// --grippers: how far each gripper circles (m) and how often (Hz), so that its track, constraint and
+/// wrench are all exercised.
+constexpr double kGripperCircle_m = 0.05;
+constexpr double kGripperCircle_Hz = 1.0;
+
+/// Attaches `count` grippers along the top row, one particle each (spread evenly; pinned particles skipped
+/// by taking the next free column). Returns their starting poses.
+std::vector<core::Pose> attachBenchGrippers(core::Simulation& sim, int count) {
+  std::vector<core::Pose> poses;
+  const int cols = sim.grid().cols;
+  for (int k = 0; k < count; ++k) {
+    int particle = count == 1 ? cols / 2 : k * (cols - 1) / (count - 1);
+    const std::vector<int>& pins = sim.pinnedParticles();
+    while (std::find(pins.begin(), pins.end(), particle) != pins.end() && particle + 1 < sim.grid().particleCount()) {
+      particle += cols;  // the particle below a pinned one
+    }
+    core::GripperRequest request;
+    request.id = static_cast<std::uint32_t>(k);
+    request.frame = "bench_" + std::to_string(k);
+    request.pose.position_m = sim.state().positions_m.col(particle);
+    request.particles = {particle};
+    std::vector<int> held;
+    std::string error;
+    if (!sim.attachGripper(request, &held, &error)) throw std::runtime_error("--grippers: " + error);
+    poses.push_back(request.pose);
+  }
+  return poses;
+}
+
+void moveBenchGrippers(core::Simulation& sim, const std::vector<core::Pose>& homes) {
+  const double phase = core::kTwoPi * kGripperCircle_Hz * (sim.state().time_s + sim.options().frameDuration_s());
+  for (std::size_t k = 0; k < homes.size(); ++k) {
+    core::Pose pose = homes[k];
+    pose.position_m += kGripperCircle_m * Eigen::Vector3d(std::cos(phase) - 1.0, std::sin(phase), 0.0);
+    std::string error;
+    sim.moveGripper(static_cast<std::uint32_t>(k), pose, &error);
+  }
+}
+
 /// Runs warm-up and timed frames of our simulator.
 BenchResult runOurs(const BenchOptions& options, const core::SceneOptions& scene) {
   core::Simulation sim(scene);
+  const std::vector<core::Pose> gripper_homes = attachBenchGrippers(sim, options.grippers);
   BenchResult result;
   result.side = "cloth_sim";
   result.integrator = core::integratorName(scene.integrator);
@@ -299,6 +351,7 @@ BenchResult runOurs(const BenchOptions& options, const core::SceneOptions& scene
   const int total_frames = options.warmup_frames + options.frames;
   for (int frame = 0; frame < total_frames; ++frame) {
     const Clock::time_point start = Clock::now();
+    moveBenchGrippers(sim, gripper_homes);
     const core::FrameReport report = sim.advanceFrame();
     const double ms = millisecondsSince(start);
 
@@ -447,6 +500,7 @@ std::string toJson(const BenchOptions& options, const core::SceneOptions& scene,
   json.add("iterations", r.iterations)
       .add("stiffness", r.stiffness)
       .add("dynamic", options.dynamic)
+      .add("grippers", options.grippers)
       .add("frames", options.frames)
       .add("warmup", options.bullet ? 0 : options.warmup_frames)
       .add("frames_timed", r.frames_timed)
