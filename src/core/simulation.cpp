@@ -57,6 +57,8 @@ void Simulation::reset() {
   }
   inputs_.grasps.clear();
   inputs_.grippers.clear();  // the scene starts again as it was built: nothing holds it
+  // The links stay where they were last seen (their frames will say where they go next).
+  inputs_.frame_colliders.resize(options_.colliders.frames.size());
   gripper_wrenches_.clear();
   memory_ = GuardMemory();
   bound_stale_ = true;
@@ -94,6 +96,11 @@ ContactStats Simulation::integrateFrame(int substeps, StepReport* steps) {
     if (!options_.colliders.empty()) {
       contacts += resolveContacts(options_.colliders, options_.contact, t0_s, state_.time_s, inverse_mass,
                                   substep_start_positions_m_, state_.positions_m, state_.velocities_m_per_s);
+      if (!options_.colliders.frames.empty()) {
+        contacts += resolveFrameColliders(options_.colliders.frames, inputs_.frame_colliders, options_.contact, t0_s,
+                                          state_.time_s, inverse_mass, substep_start_positions_m_, state_.positions_m,
+                                          state_.velocities_m_per_s);
+      }
     }
   }
   return contacts;
@@ -202,7 +209,7 @@ FrameReport Simulation::advanceFrame() {
           << integratorName(options_.integrator) << " (" << report.stable_step_s << " s): use substeps: auto";
     warning = fixed.str();
   }
-  holdUnmovedGrippers();
+  holdUnmovedBodies();
   frame_start_ = state_;
   const FrameEnvelope envelope = frameEnvelope();
   bool accepted = computeFrame(envelope, first_substeps, &report);
@@ -304,6 +311,7 @@ bool Simulation::retune(const SceneOptions& options, std::string* error) {
     integrator_ = makeIntegrator(options.integrator, options.solver);
   }
   options_ = options;
+  inputs_.frame_colliders.resize(options_.colliders.frames.size());  // new links are unseen until posed
   force_model_.refreshConstraints();  // the pins' swing and the spheres may have changed
   bound_stale_ = true;
   energy_cache_valid_ = false;
@@ -486,8 +494,46 @@ bool Simulation::moveGripper(std::uint32_t id, const Pose& end, std::string* err
   return false;
 }
 
-void Simulation::holdUnmovedGrippers() {
+bool Simulation::moveFrameCollider(std::size_t index, const Pose& frame, std::string* error) {
+  if (index >= inputs_.frame_colliders.size()) {
+    *error = "frame collider " + std::to_string(index) + " does not exist (the scene has " +
+             std::to_string(inputs_.frame_colliders.size()) + ")";
+    return false;
+  }
+  const FrameCollider& collider = options_.colliders.frames[index];
+  if (!frame.position_m.allFinite() || frame.position_m.norm() > OptionLimits::kMaxCoordinate_m ||
+      !frame.orientation.coeffs().allFinite() || frame.orientation.norm() == 0.0) {
+    *error = "frame collider " + std::to_string(index) + ": the pose of '" + collider.frame +
+             "' is non-finite or beyond " + std::to_string(OptionLimits::kMaxCoordinate_m) + " m of the origin";
+    return false;
+  }
+  Pose unit = frame;
+  unit.orientation.normalize();
+  const Pose offset = collider.offsetPose();
+  Pose shape;
+  shape.position_m = unit.transform(offset.position_m);
+  shape.orientation = (unit.orientation * offset.orientation).normalized();
+  FrameColliderTrack& entry = inputs_.frame_colliders[index];
+  entry.track.start = entry.seen ? entry.track.end : shape;  // first seen: placed, not swept in from nowhere
+  entry.track.end = shape;
+  entry.track.start_time_s = state_.time_s;
+  entry.track.duration_s = options_.frameDuration_s();
+  entry.seen = true;
+  force_model_.refreshConstraints();
+  return true;
+}
+
+void Simulation::holdUnmovedBodies() {
   bool changed = false;
+  for (FrameColliderTrack& entry : inputs_.frame_colliders) {
+    if (!entry.seen || (entry.track.start_time_s == state_.time_s && entry.track.duration_s == options_.frameDuration_s())) {
+      continue;
+    }
+    entry.track.start = entry.track.end;
+    entry.track.start_time_s = state_.time_s;
+    entry.track.duration_s = options_.frameDuration_s();
+    changed = true;
+  }
   for (Gripper& gripper : inputs_.grippers) {
     if (gripper.track.start_time_s == state_.time_s && gripper.track.duration_s == options_.frameDuration_s()) continue;
     holdStill(gripper, state_.time_s, options_.frameDuration_s());
@@ -736,6 +782,21 @@ bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error)
   }
   std::string problem = checkState(snapshot.state, grid_.particleCount());
   if (problem.empty()) problem = checkInputs(snapshot.inputs, inputs_.pins, grid_.particleCount());
+  if (problem.empty() && snapshot.inputs.frame_colliders.size() != options.colliders.frames.size()) {
+    problem = "inputs pose " + std::to_string(snapshot.inputs.frame_colliders.size()) + " frame colliders, the options have " +
+              std::to_string(options.colliders.frames.size());
+  }
+  for (std::size_t c = 0; problem.empty() && c < snapshot.inputs.frame_colliders.size(); ++c) {
+    const PoseTrack& track = snapshot.inputs.frame_colliders[c].track;
+    for (const Pose* pose : {&track.start, &track.end}) {
+      if (!pose->position_m.allFinite() || pose->position_m.norm() > OptionLimits::kMaxCoordinate_m ||
+          !pose->orientation.coeffs().allFinite() || std::abs(pose->orientation.norm() - 1.0) > 1e-6 ||
+          !(track.duration_s > 0.0) || !std::isfinite(track.duration_s) || !std::isfinite(track.start_time_s)) {
+        problem = "frame collider " + std::to_string(c) + " track: poses must be finite with unit quaternions, the duration > 0";
+        break;
+      }
+    }
+  }
   if (problem.empty()) {
     problem = checkGrippers(snapshot.inputs.grippers, inputs_.pins, grid_.particleCount(), kMaxGrippers, kMaxGraspReach_m);
   }

@@ -30,7 +30,8 @@ constexpr char kStateTag[4] = {'S', 'T', 'A', 'T'};    ///< ClothState
 constexpr char kInputsTag[4] = {'I', 'N', 'P', 'T'};   ///< ClothInputs
 constexpr char kGuardTag[4] = {'G', 'A', 'R', 'D'};    ///< GuardMemory (version 2 on)
 constexpr char kGrippersTag[4] = {'G', 'R', 'I', 'P'};  ///< ClothInputs::grippers (version 3 on)
-constexpr std::size_t kSectionCount = 5;
+constexpr char kLinksTag[4] = {'L', 'I', 'N', 'K'};     ///< ClothInputs::frame_colliders (version 3 on)
+constexpr std::size_t kSectionCount = 6;
 /// Version 1 files end after the inputs, version 2 files after the guard's memory.
 constexpr std::size_t kVersion1SectionCount = 3;
 constexpr std::size_t kVersion2SectionCount = 4;
@@ -41,6 +42,10 @@ constexpr std::size_t kGripperFixedBytes = 4 + 8 + 2 * 7 * 8 + 8 + 8 + 8 + 8;
 constexpr std::size_t kGripperBytesPerParticle = 4 + 3 * 8;
 /// Most grippers a file may hold (Simulation::kMaxGrippers is checked when it is restored).
 constexpr std::size_t kMaxGrippersInFile = 1024;
+/// Bytes of one frame collider's track: seen (uint8), two poses of 7 doubles, start time, duration.
+constexpr std::size_t kLinkTrackBytes = 1 + 2 * 7 * 8 + 8 + 8;
+/// Most frame colliders a file may pose (the options' list is checked against it when it is restored).
+constexpr std::size_t kMaxLinksInFile = 4096;
 constexpr std::size_t kTagBytes = sizeof(kOptionsTag);
 /// Longest excerpt of a validation problem quoted in an error (it may hold a string from the file).
 constexpr std::size_t kMaxExcerptChars = 80;
@@ -134,6 +139,19 @@ std::string encodeGrippers(const std::vector<Gripper>& grippers) {
     out.put(static_cast<std::uint64_t>(gripper.particles.size()));
     for (const int particle : gripper.particles) out.put(static_cast<std::int32_t>(particle));
     out.putColumns(gripper.offsets_m);
+  }
+  return out.bytes();
+}
+
+std::string encodeLinks(const std::vector<FrameColliderTrack>& links) {
+  Writer out;
+  out.put(static_cast<std::uint64_t>(links.size()));
+  for (const FrameColliderTrack& link : links) {
+    out.put(static_cast<std::uint8_t>(link.seen ? 1 : 0));
+    putPose(out, link.track.start);
+    putPose(out, link.track.end);
+    out.put(link.track.start_time_s);
+    out.put(link.track.duration_s);
   }
   return out.bytes();
 }
@@ -305,6 +323,22 @@ std::vector<Gripper> decodeGrippers(const std::string& bytes) {
   return grippers;
 }
 
+std::vector<FrameColliderTrack> decodeLinks(const std::string& bytes) {
+  Reader in(bytes.data(), bytes.size(), "frame colliders section");
+  std::vector<FrameColliderTrack> links(in.getCount(kLinkTrackBytes, kMaxLinksInFile, "frame colliders"));
+  for (FrameColliderTrack& link : links) {
+    const auto seen = in.get<std::uint8_t>();
+    if (seen > 1) throw Malformed{"frame colliders section: a seen flag is neither 0 nor 1"};
+    link.seen = seen == 1;
+    link.track.start = getPose(in);
+    link.track.end = getPose(in);
+    link.track.start_time_s = in.get<double>();
+    link.track.duration_s = in.get<double>();
+  }
+  in.expectEnd();
+  return links;
+}
+
 GuardMemory decodeGuard(const std::string& bytes) {
   Reader in(bytes.data(), bytes.size(), "guard section");
   GuardMemory guard;
@@ -346,6 +380,7 @@ std::string encodeStateFile(const SimulationSnapshot& snapshot) {
   payload.section(kInputsTag, encodeInputs(snapshot.inputs));
   payload.section(kGuardTag, encodeGuard(snapshot.guard));
   payload.section(kGrippersTag, encodeGrippers(snapshot.inputs.grippers));
+  payload.section(kLinksTag, encodeLinks(snapshot.inputs.frame_colliders));
   Writer file;
   file.putBytes(F::kMagic, sizeof(F::kMagic));
   file.put(F::kByteOrderMark);
@@ -394,7 +429,8 @@ bool decodeStateFile(const std::string& bytes, SimulationSnapshot* snapshot, std
 
     Reader sections(payload, held, "payload");
     std::array<std::string, kSectionCount> parts;
-    const std::array<const char*, kSectionCount> tags{kOptionsTag, kStateTag, kInputsTag, kGuardTag, kGrippersTag};
+    const std::array<const char*, kSectionCount> tags{kOptionsTag, kStateTag, kInputsTag, kGuardTag, kGrippersTag,
+                                                      kLinksTag};
     const std::size_t section_count =
         version == 1 ? kVersion1SectionCount : version == 2 ? kVersion2SectionCount : kSectionCount;
     for (std::size_t s = 0; s < section_count; ++s) {
@@ -413,7 +449,12 @@ bool decodeStateFile(const std::string& bytes, SimulationSnapshot* snapshot, std
     read.state = decodeState(parts[1]);
     read.inputs = decodeInputs(parts[2]);
     if (section_count > kVersion1SectionCount) read.guard = decodeGuard(parts[3]);
-    if (section_count > kVersion2SectionCount) read.inputs.grippers = decodeGrippers(parts[4]);
+    if (section_count > kVersion2SectionCount) {
+      read.inputs.grippers = decodeGrippers(parts[4]);
+      read.inputs.frame_colliders = decodeLinks(parts[5]);
+    } else {
+      read.inputs.frame_colliders.resize(read.options.colliders.frames.size());  // older files have none
+    }
     const int particles = read.options.rows * read.options.cols;
     if (read.state.particleCount() != particles) {
       throw Malformed{"state section: " + std::to_string(read.state.particleCount()) + " particles for a " +

@@ -131,6 +131,15 @@ bool sameBits(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
                    x.noise == y.noise && x.seed == y.seed;
   }
   check(same_cameras, "cameras");
+  bool same_links = ca.frames.size() == cb.frames.size();
+  for (std::size_t i = 0; same_links && i < ca.frames.size(); ++i) {
+    const FrameCollider& x = ca.frames[i];
+    const FrameCollider& y = cb.frames[i];
+    same_links = x.frame == y.frame && x.shape == y.shape && sameBits(x.radius_m, y.radius_m) &&
+                 sameBits(x.length_m, y.length_m) && sameBits(x.size_m, y.size_m) && sameBits(x.offset_m, y.offset_m) &&
+                 sameBits(x.rpy_rad, y.rpy_rad);
+  }
+  check(same_links, "frame_colliders");
   if (differ.empty()) return ::testing::AssertionSuccess();
   std::string list;
   for (const std::string& field : differ) list += " " + field;
@@ -161,6 +170,22 @@ bool sameBits(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
         !sameBits(x.stiffness_N_per_m, y.stiffness_N_per_m) || !sameBits(x.damping_N_s_per_m, y.damping_N_s_per_m) ||
         !sameBits(x.extra_force_N, y.extra_force_N)) {
       return ::testing::AssertionFailure() << "grasp " << g << " differs";
+    }
+  }
+  if (ia.frame_colliders.size() != ib.frame_colliders.size()) {
+    return ::testing::AssertionFailure() << "frame collider counts differ";
+  }
+  for (std::size_t c = 0; c < ia.frame_colliders.size(); ++c) {
+    const FrameColliderTrack& x = ia.frame_colliders[c];
+    const FrameColliderTrack& y = ib.frame_colliders[c];
+    const auto samePose = [](const Pose& p, const Pose& q) {
+      return sameBits(p.position_m, q.position_m) && sameBits(p.orientation.w(), q.orientation.w()) &&
+             sameBits(p.orientation.x(), q.orientation.x()) && sameBits(p.orientation.y(), q.orientation.y()) &&
+             sameBits(p.orientation.z(), q.orientation.z());
+    };
+    if (x.seen != y.seen || !samePose(x.track.start, y.track.start) || !samePose(x.track.end, y.track.end) ||
+        !sameBits(x.track.start_time_s, y.track.start_time_s) || !sameBits(x.track.duration_s, y.track.duration_s)) {
+      return ::testing::AssertionFailure() << "frame collider " << c << " differs";
     }
   }
   if (ia.grippers.size() != ib.grippers.size()) return ::testing::AssertionFailure() << "gripper counts differ";
@@ -216,8 +241,22 @@ void driveWithEveryInput(Simulation& sim) {
   SceneOptions tuned = sim.options();
   tuned.springs[static_cast<int>(SpringKind::kStructural)].stiffness_N_per_m *= 1.5;
   tuned.air_damping_N_s_per_m = 0.01;
+  // A forearm on a tf frame, swept into the cloth from the front.
+  FrameCollider forearm;
+  forearm.frame = "forearm";
+  forearm.shape = ShapeKind::kCapsule;
+  forearm.radius_m = 0.05;
+  forearm.length_m = 0.3;
+  forearm.rpy_rad = Eigen::Vector3d(0.0, 0.5, 0.0);
+  tuned.colliders.frames = {forearm};
   ASSERT_TRUE(sim.retune(tuned, &error)) << error;
-  for (int k = 0; k < 4; ++k) sim.advanceFrame();
+  for (int k = 0; k < 4; ++k) {
+    Pose frame;
+    frame.position_m = Eigen::Vector3d(0.0, -0.2 + 0.05 * k, 1.2);
+    frame.orientation = Eigen::AngleAxisd(0.2 * k, Eigen::Vector3d::UnitX());
+    ASSERT_TRUE(sim.moveFrameCollider(0, frame, &error)) << error;
+    sim.advanceFrame();
+  }
   // A gripper holding the particles near the middle, carried up and turned over three frames.
   GripperRequest hand;
   hand.id = 11;
@@ -610,14 +649,18 @@ TEST(StateFile, RoundTripIsBitExact) {
   EXPECT_EQ(encodeStateFile(loaded), encodeStateFile(saved)) << "writing it again gives other bytes";
 }
 
-TEST(StateFile, AVersion2FileWithoutGrippersStillLoads) {
+TEST(StateFile, AVersion2FileStillLoadsWithNoGrippersOrLinkPoses) {
   SimulationSnapshot saved = drivenSnapshot();
   saved.inputs.grippers.clear();
+  saved.inputs.frame_colliders.clear();
+  saved.options.colliders.frames.clear();
   std::string bytes = encodeStateFile(saved);
-  // Version 2 is version 3 without the last section: GRIP, its 8-byte length and an 8-byte count of 0.
-  constexpr std::size_t kEmptyGrippersSectionBytes = 4 + 8 + 8;
-  ASSERT_EQ(bytes.substr(bytes.size() - kEmptyGrippersSectionBytes, 4), "GRIP");
-  bytes.resize(bytes.size() - kEmptyGrippersSectionBytes);
+  // Version 2 is version 3 without the last two sections: GRIP and LINK, each a tag, an 8-byte length and
+  // an 8-byte count of 0.
+  constexpr std::size_t kEmptySectionBytes = 4 + 8 + 8;
+  ASSERT_EQ(bytes.substr(bytes.size() - 2 * kEmptySectionBytes, 4), "GRIP");
+  ASSERT_EQ(bytes.substr(bytes.size() - kEmptySectionBytes, 4), "LINK");
+  bytes.resize(bytes.size() - 2 * kEmptySectionBytes);
   poke(bytes, kVersionOffset, std::uint32_t{2});
   poke(bytes, kLengthOffset, static_cast<std::uint64_t>(bytes.size() - StateFileFormat::kHeaderBytes));
   SimulationSnapshot loaded;
@@ -776,10 +819,11 @@ TEST(StateFile, SizesOfOrdinarySnapshots) {
     snapshot.inputs.pin_travel_m.setZero(3, 2);
     const std::size_t size = encodeStateFile(snapshot).size();
     std::printf("[ size       ] hanging %dx%d: %zu bytes\n", side, side, size);
-    // Header, 5 section headers (tag + length), options text, state, inputs, guard memory (2 x int32),
-    // grippers (a count of 0).
-    EXPECT_EQ(size, StateFileFormat::kHeaderBytes + 5 * 12 + sceneYaml(snapshot.options).size() +
-                        (8 + 8 + 8 + 48 * static_cast<std::size_t>(side * side)) + (24 + 8 + 2 * 4 + 2 * 48 + 8) + 8 + 8);
+    // Header, 6 section headers (tag + length), options text, state, inputs, guard memory (2 x int32),
+    // grippers and frame colliders (a count of 0 each).
+    EXPECT_EQ(size, StateFileFormat::kHeaderBytes + 6 * 12 + sceneYaml(snapshot.options).size() +
+                        (8 + 8 + 8 + 48 * static_cast<std::size_t>(side * side)) + (24 + 8 + 2 * 4 + 2 * 48 + 8) + 8 +
+                        8 + 8);
   }
 }
 

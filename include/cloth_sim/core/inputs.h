@@ -4,6 +4,7 @@
 #pragma once
 
 #include "cloth_sim/core/forces.h"
+#include "cloth_sim/core/frame_colliders.h"
 #include "cloth_sim/core/kinematics.h"
 
 #include <Eigen/Core>
@@ -45,6 +46,9 @@ struct ClothInputs {
 
   /// Grippers holding particles rigidly (Simulation::attachGripper); at most Simulation::kMaxGrippers.
   std::vector<Gripper> grippers;
+  /// Where each of options.colliders.frames is over the current frame (Simulation::moveFrameCollider), one
+  /// per collider, in that order.
+  std::vector<FrameColliderTrack> frame_colliders;
 
   /// True when a grasp holds particle i (a held pin is off its hook and moves freely).
   bool isGrasped(int particle) const {

@@ -156,6 +156,13 @@ class Simulation {
   /// frame the gripper stays where it was. False with *error for an unknown id or a non-finite pose.
   bool moveGripper(std::uint32_t id, const Pose& end, std::string* error);
   const std::vector<Gripper>& grippers() const { return inputs_.grippers; }
+  /// Where frame collider `index` (options().colliders.frames) is at the end of the next frame: `frame` is
+  /// its tf frame's pose (world frame), composed here with the collider's offset. Its first pose places it
+  /// (it collides with nothing before); later ones sweep it there over the frame. Without a call before a
+  /// frame it stays where it was. False with *error for an index out of range or a non-finite pose.
+  bool moveFrameCollider(std::size_t index, const Pose& frame, std::string* error);
+  /// The frame colliders' shape poses at the current time (unseen ones: not posed), world frame.
+  const std::vector<FrameColliderTrack>& frameColliders() const { return inputs_.frame_colliders; }
   /// What the cloth did to each gripper over the last frame (in inputs().grippers order), including the
   /// particles that slipped out of it (max_force); empty before the first frame with grippers.
   const std::vector<GripperWrench>& gripperWrenches() const { return gripper_wrenches_; }
@@ -215,8 +222,9 @@ class Simulation {
   /// to *steps.
   ContactStats integrateFrame(int substeps, StepReport* steps);
 
-  /// Before a frame: a gripper that was not moved for it holds still (its track starts at this frame).
-  void holdUnmovedGrippers();
+  /// Before a frame: a gripper or frame collider that was not moved for it holds still (its track starts
+  /// at this frame).
+  void holdUnmovedBodies();
   /// After an accepted frame: each gripper's wrench from the constraint reactions; slipped particles let go.
   void measureGripperWrenches();
 
