@@ -22,7 +22,8 @@ namespace {
 /// Private parameters that belong to the node rather than to the scene.
 const std::set<std::string>& nodeOnlyParameters() {
   static const std::set<std::string> names{Names::kSceneParam, Names::kFrameIdParam, Names::kMeshRateParam,
-                                           Names::kParentFrameParam, Names::kTuningNamespace};
+                                           Names::kParentFrameParam, Names::kTuningNamespace,
+                                           Names::kRobotDescriptionParam};
   return names;
 }
 
@@ -54,13 +55,35 @@ bool ClothNode::start(std::string* error) {
   XmlRpc::XmlRpcValue parameters;
   if (!ros::param::get(pnh_.getNamespace(), parameters)) parameters = XmlRpc::XmlRpcValue();
   std::string parent_frame;
+  std::string robot_description;
   std::string scene = kDefaultScene;
   double mesh_rate_hz = 0.0;  // not given: the frame rate, known once the scene is built
   if (!optionalParameter(parameters, Names::kFrameIdParam, &frame_id_, error) ||
       !optionalParameter(parameters, Names::kParentFrameParam, &parent_frame, error) ||
       !optionalParameter(parameters, Names::kSceneParam, &scene, error) ||
-      !optionalParameter(parameters, Names::kMeshRateParam, &mesh_rate_hz, error)) {
+      !optionalParameter(parameters, Names::kMeshRateParam, &mesh_rate_hz, error) ||
+      !optionalParameter(parameters, Names::kRobotDescriptionParam, &robot_description, error)) {
     return false;
+  }
+  if (!robot_description.empty()) {
+    std::string urdf_xml;
+    if (!nh_.getParam(robot_description, urdf_xml)) {
+      *error = "parameter ~robot_description = '" + robot_description + "': no string parameter " +
+               nh_.resolveName(robot_description) + " holds a URDF";
+      return false;
+    }
+    std::vector<std::string> mesh_links;
+    std::string why;
+    if (!collidersFromUrdf(urdf_xml, &urdf_colliders_, &mesh_links, &why)) {
+      *error = "parameter " + nh_.resolveName(robot_description) + ": " + why;
+      return false;
+    }
+    if (!mesh_links.empty()) {
+      ROS_WARN("cloth_node: %s: skipping the mesh collisions of links %s (only spheres, cylinders and boxes collide)",
+               nh_.resolveName(robot_description).c_str(), join(mesh_links, ", ").c_str());
+    }
+    ROS_INFO("cloth_node: %zu colliders from the URDF in %s", urdf_colliders_.size(),
+             nh_.resolveName(robot_description).c_str());
   }
   for (const auto& [name, value] : {std::pair<const char*, const std::string*>{Names::kFrameIdParam, &frame_id_},
                                     {Names::kParentFrameParam, &parent_frame}, {Names::kSceneParam, &scene}}) {
@@ -108,6 +131,8 @@ bool ClothNode::start(std::string* error) {
   grasp_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &grasp_receive_queue_);
   grasp_spinner_->start();
   grippers_ = std::make_unique<Grippers>(pnh_, frame_inputs_, frame_id_, [this]() -> core::Simulation& { return *simulation_; });
+  frame_colliders_ = std::make_unique<FrameColliderInputs>(frame_inputs_, frame_id_,
+                                                           [this]() -> core::Simulation& { return *simulation_; });
   // The mouse's commands join ~grasp's queue, so they are applied in order with the topic's.
   mouse_ = std::make_unique<MouseDrag>(pnh_.resolveName(Names::kMouseNamespace), [this](const cloth_sim::Grasp& grasp) {
     onGraspReceived(boost::make_shared<const cloth_sim::Grasp>(grasp));
@@ -141,6 +166,7 @@ bool ClothNode::start(std::string* error) {
   diagnostics_.add("simulation", this, &ClothNode::diagnose);
   diagnostics_.add("cameras", cameras_.get(), &DepthCameras::diagnose);
   diagnostics_.add("grippers", grippers_.get(), &Grippers::diagnose);
+  diagnostics_.add("frame colliders", frame_colliders_.get(), &FrameColliderInputs::diagnose);
   window_start_ = std::chrono::steady_clock::now();
 
   if (!parent_frame.empty()) {
@@ -200,6 +226,15 @@ std::unique_ptr<core::Simulation> ClothNode::buildSimulation(const std::string& 
         *error = "invalid parameter: " + join(problems, "; ");
         return nullptr;
       }
+    }
+  }
+  if (!urdf_colliders_.empty()) {
+    // The robot's links touch every scene it loads.
+    options.colliders.frames.insert(options.colliders.frames.end(), urdf_colliders_.begin(), urdf_colliders_.end());
+    const std::vector<std::string> problems = core::validateSceneOptions(options);
+    if (!problems.empty()) {
+      *error = "scene '" + scene + "' with the URDF's colliders: " + join(problems, "; ");
+      return nullptr;
     }
   }
   std::unique_ptr<core::Simulation> simulation;
@@ -280,6 +315,7 @@ bool ClothNode::advanceFrames(int frames) {
     const auto start = std::chrono::steady_clock::now();
     const bool gripped = !simulation_->grippers().empty();
     if (gripped) grippers_->beforeFrame(frameTime(simulation_->state().frame + 1));
+    if (!simulation_->options().colliders.frames.empty()) frame_colliders_->beforeFrame(frameTime(simulation_->state().frame + 1));
     last_report_ = simulation_->advanceFrame();
     if (gripped) {
       if (last_report_.scene_reset) grippers_->synchronize();  // a recovery's reset let every gripper go
