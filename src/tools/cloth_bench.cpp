@@ -53,6 +53,18 @@ using cloth_sim::bench::kExitRunFailed;
 using cloth_sim::bench::kExitUsage;  // also --bullet without Bullet
 
 constexpr int kDefaultFrames = 100;
+/// --capsules: each capsule's radius and core length, m, its gap to the cloth at rest and how far it
+/// presses in (its surface goes from gap off the cloth to press - gap into it).
+constexpr double kBenchCapsuleRadius_m = 0.03;
+constexpr double kBenchCapsuleLength_m = 0.2;
+constexpr double kBenchCapsuleGap_m = 0.01;
+constexpr double kBenchCapsulePress_m = 0.02;
+
+/// --grippers: how far each gripper circles (m) and how often (Hz, --capsules swing at the same rate), so
+/// that its track, constraint and wrench are all exercised.
+constexpr double kGripperCircle_m = 0.02;
+constexpr double kGripperCircle_Hz = 1.0;
+
 /// Frames run before timing starts: the first frames pay for allocations and cold caches.
 constexpr int kDefaultWarmupFrames = 5;
 constexpr int kDefaultBulletIterations = 1;
@@ -94,8 +106,10 @@ Times a cloth scene and prints one JSON line on stdout.
   --stop-above-strain X  end the run at the first frame whose structural strain exceeds X, that rolls back or
                          that is not finite: the setting has failed, and a diverging frame costs the guard up
                          to 15 times the substeps (not used with --bullet)
-  --grippers N           hold the cloth with N grippers (Simulation::attachGripper) along its top row, each
-                         holding one particle and circling 5 cm at 1 Hz: the cost of grippers (0: none)
+  --capsules N           add N capsule frame colliders (radius 3 cm, core 20 cm) spread across the cloth, each
+                         lying along it and pressing 1 cm in and out of it at 1 Hz: the cost of robot links
+  --grippers N           hold the cloth with N grippers (Simulation::attachGripper) along its bottom row, each
+                         holding one particle and circling 2 cm at 1 Hz: the cost of grippers (0: none)
   --help                 this text
 
 Other modes (each with its own --help): --accuracy (speed against accuracy of every integrator and substep count
@@ -126,6 +140,7 @@ struct BenchOptions {
   std::optional<int> bullet_iterations;  ///< set only by --iterations
   std::optional<double> stop_above_strain;  ///< set only by --stop-above-strain
   int grippers = 0;                         ///< --grippers N
+  int capsules = 0;                         ///< --capsules N
   bool help = false;
 };
 
@@ -146,7 +161,7 @@ constexpr std::pair<const char*, const char*> kSceneKeyFlags[] = {
 /// The other flags that take a value.
 constexpr const char* kValueFlags[] = {"--scene",      "--scenes-dir", "--set",
                                        "--frames",     "--warmup",     "--iterations",
-                                       "--stop-above-strain", "--grippers"};
+                                       "--stop-above-strain", "--grippers", "--capsules"};
 
 /// The scene key a shorthand flag stands for, or nullptr.
 const char* sceneKeyOf(const std::string& flag) {
@@ -194,6 +209,8 @@ void parseCommandLine(int argc, char** argv, BenchOptions* options, std::vector<
       cloth_sim::bench::parseSceneSetting(value, &options->overrides, errors);
     } else if (flag == "--frames") {
       parseCount(flag, value, 1, &options->frames, errors);
+    } else if (flag == "--capsules") {
+      parseCount(flag, value, 0, &options->capsules, errors);
     } else if (flag == "--grippers") {
       parseCount(flag, value, 0, &options->grippers, errors);
     } else if (flag == "--warmup") {
@@ -212,6 +229,7 @@ void parseCommandLine(int argc, char** argv, BenchOptions* options, std::vector<
   }
 
   if (options->grippers > 0 && options->bullet) errors->push_back("--grippers: Bullet's run has no grippers");
+  if (options->capsules > 0 && options->bullet) errors->push_back("--capsules: Bullet's run has no frame colliders");
   if (options->grippers > static_cast<int>(core::Simulation::kMaxGrippers)) {
     errors->push_back("--grippers " + std::to_string(options->grippers) + ": at most " +
                       std::to_string(core::Simulation::kMaxGrippers));
@@ -234,6 +252,14 @@ bool buildScene(const BenchOptions& options, core::SceneOptions* scene, std::vec
     return false;
   }
   if (options.dynamic) cloth_sim::bench::makeDynamic(scene);
+  for (int k = 0; k < options.capsules; ++k) {
+    core::FrameCollider capsule;
+    capsule.frame = "bench_capsule_" + std::to_string(k);
+    capsule.shape = core::ShapeKind::kCapsule;
+    capsule.radius_m = kBenchCapsuleRadius_m;
+    capsule.length_m = kBenchCapsuleLength_m;
+    scene->colliders.frames.push_back(capsule);
+  }
   return cloth_sim::bench::validateInto(*scene, errors);
 }
 
@@ -295,22 +321,33 @@ std::string stopReason(const BenchOptions& options, const core::FrameReport& rep
   return reason.str();
 }
 
-/// --grippers: how far each gripper circles (m) and how often (Hz), so that its track, constraint and
-/// wrench are all exercised.
-constexpr double kGripperCircle_m = 0.05;
-constexpr double kGripperCircle_Hz = 1.0;
+/// Where --capsules' capsule k of `count` is at time_s: lying along the cloth's u axis over its rest
+/// surface at an even spread over its diagonal, its surface moving between 1 cm off the cloth and 1 cm
+/// into it along the surface's normal at kGripperCircle_Hz (a link brushing the cloth, every frame checked
+/// against every particle).
+core::Pose benchCapsulePose(const core::Simulation& sim, int k, int count, double time_s) {
+  const core::ClothGrid& grid = sim.grid();
+  const int rows = grid.rows;
+  const int cols = grid.cols;
+  const double share = (k + 1.0) / (count + 1.0);
+  const int particle = static_cast<int>(share * (rows - 1)) * cols + static_cast<int>(share * (cols - 1));
+  const Eigen::Vector3d u = sim.options().u_axis.normalized();
+  const Eigen::Vector3d normal = u.cross(sim.options().v_axis).normalized();
+  const double press_m = kBenchCapsulePress_m * 0.5 * (1.0 - std::cos(core::kTwoPi * kGripperCircle_Hz * time_s));
+  core::Pose pose;
+  pose.position_m = grid.rest_positions_m.col(particle) + (kBenchCapsuleRadius_m + kBenchCapsuleGap_m - press_m) * normal;
+  pose.orientation = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), u);
+  return pose;
+}
 
-/// Attaches `count` grippers along the top row, one particle each (spread evenly; pinned particles skipped
-/// by taking the next free column). Returns their starting poses.
+/// Attaches `count` grippers along the bottom row (free in every built-in scene's pinning), one particle
+/// each, spread evenly. Returns their starting poses.
 std::vector<core::Pose> attachBenchGrippers(core::Simulation& sim, int count) {
   std::vector<core::Pose> poses;
   const int cols = sim.grid().cols;
+  const int bottom_row = (sim.grid().rows - 1) * cols;
   for (int k = 0; k < count; ++k) {
-    int particle = count == 1 ? cols / 2 : k * (cols - 1) / (count - 1);
-    const std::vector<int>& pins = sim.pinnedParticles();
-    while (std::find(pins.begin(), pins.end(), particle) != pins.end() && particle + 1 < sim.grid().particleCount()) {
-      particle += cols;  // the particle below a pinned one
-    }
+    const int particle = bottom_row + (count == 1 ? cols / 2 : k * (cols - 1) / (count - 1));
     core::GripperRequest request;
     request.id = static_cast<std::uint32_t>(k);
     request.frame = "bench_" + std::to_string(k);
@@ -352,6 +389,12 @@ BenchResult runOurs(const BenchOptions& options, const core::SceneOptions& scene
   for (int frame = 0; frame < total_frames; ++frame) {
     const Clock::time_point start = Clock::now();
     moveBenchGrippers(sim, gripper_homes);
+    for (int k = 0; k < options.capsules; ++k) {
+      std::string error;
+      sim.moveFrameCollider(static_cast<std::size_t>(k),
+                            benchCapsulePose(sim, k, options.capsules, sim.state().time_s + sim.options().frameDuration_s()),
+                            &error);
+    }
     const core::FrameReport report = sim.advanceFrame();
     const double ms = millisecondsSince(start);
 
@@ -501,6 +544,7 @@ std::string toJson(const BenchOptions& options, const core::SceneOptions& scene,
       .add("stiffness", r.stiffness)
       .add("dynamic", options.dynamic)
       .add("grippers", options.grippers)
+      .add("capsules", options.capsules)
       .add("frames", options.frames)
       .add("warmup", options.bullet ? 0 : options.warmup_frames)
       .add("frames_timed", r.frames_timed)
