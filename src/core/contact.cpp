@@ -399,11 +399,12 @@ ContactStats resolveFrameColliders(const std::vector<FrameCollider>& colliders,
 
       Eigen::Vector3d surface_local;
       Eigen::Vector3d normal_local;
-      if (crossing == Crossing::kSwept && deep_at >= 0.0 && start_distance > depth_m) {
+      const bool same_side = end_normal.dot(start_normal) > 0.0;
+      if (crossing == Crossing::kSwept && deep_at >= 0.0 && (start_distance > depth_m || !same_side)) {
         // Back to where it met the surface, so it cannot come out on the far side (a link at speed often
         // carries a particle past its core within one substep, where the nearest surface is the wrong one).
-        // One that started in the band (resting on the link) is pushed to the nearest surface instead, so
-        // that it can slide and friction decides whether it is carried.
+        // One that started in the band (resting on the link) and is still on that side is pushed to the
+        // nearest surface instead, so that it can slide and friction decides whether it is carried.
         const Eigen::Vector3d entry = entryPoint(collider, start, end, deep_at);
         const double entry_distance = shapeSignedDistance(collider, entry, &normal_local);
         surface_local = entry - entry_distance * normal_local;
