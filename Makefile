@@ -52,7 +52,7 @@ DEB_PACKAGES := build-essential cmake pkg-config \
   python3-rosgraph-msgs python3-std-srvs python3-tf2-msgs \
   libbullet-dev catkin-lint \
   libsensor-msgs-dev python3-sensor-msgs libdepth-image-proc-dev libnodeletlib-tools \
-  libinteractive-markers-dev
+  libinteractive-markers-dev liburdf-dev ros-robot-state-publisher
 # libbullet-dev above is for cloth_bench's --bullet comparison only (not a run or build dependency of
 # the package: package.xml does not list it).
 # Only `make pictures` needs these (rviz screenshots under Xvfb with ImageMagick's import).

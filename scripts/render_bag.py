@@ -99,6 +99,36 @@ def pinned_points(last_states):
     return last_states[-1][0][still]
 
 
+MARKER_CUBE, MARKER_SPHERE, MARKER_CYLINDER = 1, 2, 3
+# Collider namespaces drawn (cloth_node's ~colliders): the scene's boxes and spheres and the robot's links.
+DRAWN_COLLIDERS = ("boxes", "spheres", "frame_colliders")
+LINK_COLOR = "tab:orange"
+
+
+def draw_colliders(ax, array):
+    """The boxes, spheres and links of a ~colliders MarkerArray: boxes as wire frames, a capsule's cylinder
+    as a thick segment along its axis, spheres as dots (planes are left to the floor hint)."""
+    for marker in array.markers if array is not None else []:
+        if marker.ns not in DRAWN_COLLIDERS or marker.action != MARKER_ADD:
+            continue
+        rot = quat_to_matrix(marker.pose.orientation)
+        centre = np.array([marker.pose.position.x, marker.pose.position.y, marker.pose.position.z])
+        size = np.array([marker.scale.x, marker.scale.y, marker.scale.z])
+        color = LINK_COLOR if marker.ns == "frame_colliders" else "0.35"
+        if marker.type == MARKER_CUBE:
+            corners = np.array([[sx, sy, sz] for sx in (-0.5, 0.5) for sy in (-0.5, 0.5) for sz in (-0.5, 0.5)])
+            world = (corners * size) @ rot.T + centre
+            for a in range(8):
+                for b in range(a + 1, 8):
+                    if bin(a ^ b).count("1") == 1:  # corners differing along one axis: an edge
+                        ax.plot(*zip(world[a], world[b]), color=color, lw=1.2)
+        elif marker.type == MARKER_CYLINDER:
+            ends = np.array([[0, 0, -0.5 * size[2]], [0, 0, 0.5 * size[2]]]) @ rot.T + centre
+            ax.plot(*zip(ends[0], ends[1]), color=color, lw=6, solid_capstyle="round")
+        elif marker.type == MARKER_SPHERE:
+            ax.scatter([centre[0]], [centre[1]], [centre[2]], s=30, c=color, depthshade=False)
+
+
 def read_bag(path, topic):
     meshes = []  # (bag time s, header stamp s, marker)
     states = []  # (bag time s, sim_time s)
@@ -119,6 +149,18 @@ def read_bag(path, topic):
     return meshes, states, list(last_states)
 
 
+def last_colliders(path, topic, before_s):
+    """The last ~colliders MarkerArray recorded at or before bag time before_s, or None."""
+    last = None
+    with rosbag.Bag(path) as bag:
+        if topic not in bag.get_type_and_topic_info().topics:
+            return None
+        for _, msg, stamp in bag.read_messages(topics=[topic]):
+            if stamp.to_sec() <= before_s + 1e-6:
+                last = msg
+    return last
+
+
 def rate(times):
     if len(times) < 2 or times[-1] <= times[0]:
         return float("nan")
@@ -130,6 +172,8 @@ def main(argv=None):
     ap.add_argument("bag")
     ap.add_argument("out", metavar="OUT.png")
     ap.add_argument("--topic", default="/cloth_node/mesh")
+    ap.add_argument("--no-pins", action="store_true",
+                    help="do not mark still particles as pins (a cloth resting on a table is still too)")
     ap.add_argument("--title", default=None, help="picture title (default: the bag's file name)")
     ap.add_argument("--dpi", type=int, default=110)
     args = ap.parse_args(argv)
@@ -166,7 +210,11 @@ def main(argv=None):
 
     fig = plt.figure(figsize=(7.5, 6))
     ax = fig.add_subplot(111, projection="3d")
+    colliders = last_colliders(args.bag, args.topic.rsplit("/", 1)[0] + "/colliders", t_bag)
     flat = tris.reshape(-1, 3)
+    links = [m for m in (colliders.markers if colliders is not None else []) if m.ns == "frame_colliders"]
+    if links:  # the robot's links are in the picture too
+        flat = np.vstack([flat, [[m.pose.position.x, m.pose.position.y, m.pose.position.z] for m in links]])
     lo, hi = flat.min(axis=0), flat.max(axis=0)
     # The floor: z = 0 (the plane the scenes' potential energy and floor contacts are measured from),
     # drawn under the cloth with a margin; if the cloth is far above it, the floor still anchors the view.
@@ -187,7 +235,9 @@ def main(argv=None):
     cloth = Poly3DCollection(list(tris), facecolors=faces, edgecolors=faces, linewidths=0.3)
     ax.add_collection3d(cloth)
 
-    pins = pinned_points(last_states)
+    draw_colliders(ax, colliders)
+
+    pins = np.zeros((0, 3)) if args.no_pins else pinned_points(last_states)
     if len(pins):
         ax.scatter(pins[:, 0], pins[:, 1], pins[:, 2], s=60, c="black", depthshade=False, label="pins")
         ax.legend(loc="upper left")

@@ -317,4 +317,129 @@ double maxPenetration(const ColliderSet& colliders, double time_s, const Eigen::
   return deepest_m;
 }
 
+namespace {
+
+/// Most samples the sweep takes along one particle's path in a shape's frame.
+constexpr int kMaxSweepSamples = 64;
+/// Bisection steps that place a swept particle's entry point (the path's length / 2^20 off at most).
+constexpr int kEntryBisections = 20;
+
+/// The local path start + s (end - start), s in [0, 1], against a shape: the first sample where it is
+/// deeper than the band, or -1 if none is.
+double firstDeepSample(const FrameCollider& collider, const Eigen::Vector3d& start, const Eigen::Vector3d& end,
+                       double depth_m) {
+  const double length_m = (end - start).norm();
+  const int samples =
+      std::clamp(static_cast<int>(std::ceil(2.0 * length_m / std::max(collider.thickness_m(), kTinyLength_m))), 1,
+                 kMaxSweepSamples);
+  Eigen::Vector3d normal;
+  for (int k = 1; k <= samples; ++k) {
+    const double s = static_cast<double>(k) / samples;
+    if (!notInside(shapeSignedDistance(collider, start + s * (end - start), &normal), depth_m)) return s;
+  }
+  return -1.0;
+}
+
+/// The point where the path first meets the surface, between s = 0 (not inside) and s_in (inside).
+Eigen::Vector3d entryPoint(const FrameCollider& collider, const Eigen::Vector3d& start, const Eigen::Vector3d& end,
+                           double s_in) {
+  double outside = 0.0;
+  double inside = s_in;
+  Eigen::Vector3d normal;
+  for (int k = 0; k < kEntryBisections; ++k) {
+    const double middle = 0.5 * (outside + inside);
+    if (shapeSignedDistance(collider, start + middle * (end - start), &normal) < 0.0) {
+      inside = middle;
+    } else {
+      outside = middle;
+    }
+  }
+  return start + outside * (end - start);
+}
+
+}  // namespace
+
+ContactStats resolveFrameColliders(const std::vector<FrameCollider>& colliders,
+                                   const std::vector<FrameColliderTrack>& tracks, const ContactOptions& options,
+                                   double t0_s, double t1_s, const Eigen::VectorXd& inverse_mass_per_kg,
+                                   const Eigen::Matrix3Xd& previous_positions_m, Eigen::Matrix3Xd& positions_m,
+                                   Eigen::Matrix3Xd& velocities_m_per_s) {
+  ContactStats stats;
+  const double depth_m = options.depth_m;
+  for (std::size_t c = 0; c < colliders.size() && c < tracks.size(); ++c) {
+    if (!tracks[c].seen) continue;
+    const FrameCollider& collider = colliders[c];
+    const PoseTrack& track = tracks[c].track;
+    const Pose pose0 = track.atTime(t0_s);
+    const Pose pose1 = track.atTime(t1_s);
+    const Twist twist = track.twist();
+    const Eigen::Matrix3d to_local0 = pose0.orientation.toRotationMatrix().transpose();
+    const Eigen::Matrix3d to_local1 = pose1.orientation.toRotationMatrix().transpose();
+    const Eigen::Matrix3d to_world1 = pose1.orientation.toRotationMatrix();
+    // Anything further than this from the shape's origin, at both ends of the substep and along the path,
+    // cannot touch it.
+    const double reach_m = collider.boundingRadius_m() + depth_m;
+    for (Eigen::Index i = 0; i < positions_m.cols(); ++i) {
+      if (inverse_mass_per_kg[i] == 0.0) continue;
+      const Eigen::Vector3d start = to_local0 * (previous_positions_m.col(i) - pose0.position_m);
+      const Eigen::Vector3d end = to_local1 * (positions_m.col(i) - pose1.position_m);
+      const Eigen::Vector3d path = end - start;
+      const double along = path.squaredNorm() > 0.0 ? std::clamp(-start.dot(path) / path.squaredNorm(), 0.0, 1.0) : 0.0;
+      if ((start + along * path).norm() > reach_m) continue;  // the whole path passes outside the bound
+
+      Eigen::Vector3d start_normal;
+      Eigen::Vector3d end_normal;
+      const double start_distance = shapeSignedDistance(collider, start, &start_normal);
+      const double end_distance = shapeSignedDistance(collider, end, &end_normal);
+      const double deep_at = notInside(start_distance, depth_m) ? firstDeepSample(collider, start, end, depth_m) : -1.0;
+      const bool tunnelled = deep_at >= 0.0 && notInside(end_distance, depth_m);
+      Crossing crossing = classifyDeep(start_distance, end_distance, depth_m);
+      if (tunnelled) crossing = Crossing::kSwept;
+      if (crossing == Crossing::kNone && end_distance > depth_m) continue;
+
+      Eigen::Vector3d surface_local;
+      Eigen::Vector3d normal_local;
+      const bool same_side = end_normal.dot(start_normal) > 0.0;
+      if (crossing == Crossing::kSwept && deep_at >= 0.0 && (start_distance > depth_m || !same_side)) {
+        // Back to where it met the surface, so it cannot come out on the far side (a link at speed often
+        // carries a particle past its core within one substep, where the nearest surface is the wrong one).
+        // One that started in the band (resting on the link) and is still on that side is pushed to the
+        // nearest surface instead, so that it can slide and friction decides whether it is carried.
+        const Eigen::Vector3d entry = entryPoint(collider, start, end, deep_at);
+        const double entry_distance = shapeSignedDistance(collider, entry, &normal_local);
+        surface_local = entry - entry_distance * normal_local;
+      } else {
+        normal_local = end_normal;
+        surface_local = end - end_distance * end_normal;
+      }
+      const Eigen::Vector3d normal = to_world1 * normal_local;
+      const Eigen::Vector3d surface_m = pose1.transform(surface_local);
+      const Eigen::Vector3d surface_velocity = twist.pointVelocity(surface_m - pose1.position_m);
+      const bool approaching = respond(normal, surface_velocity, options, velocities_m_per_s.col(i));
+      if (crossing != Crossing::kNone || (approaching && end_distance < 0.0)) positions_m.col(i) = surface_m;
+      count(crossing, stats);
+      if (crossing == Crossing::kNone && approaching) ++stats.band_collisions;
+    }
+  }
+  return stats;
+}
+
+double maxFrameColliderPenetration(const std::vector<FrameCollider>& colliders,
+                                   const std::vector<FrameColliderTrack>& tracks, double time_s,
+                                   const Eigen::Matrix3Xd& positions_m) {
+  double deepest_m = 0.0;
+  for (std::size_t c = 0; c < colliders.size() && c < tracks.size(); ++c) {
+    if (!tracks[c].seen) continue;
+    const Pose pose = tracks[c].track.atTime(time_s);
+    const Eigen::Matrix3d to_local = pose.orientation.toRotationMatrix().transpose();
+    Eigen::Vector3d normal;
+    for (Eigen::Index i = 0; i < positions_m.cols(); ++i) {
+      const double distance_m =
+          shapeSignedDistance(colliders[c], to_local * (positions_m.col(i) - pose.position_m), &normal);
+      deepest_m = std::max(deepest_m, -distance_m);
+    }
+  }
+  return deepest_m;
+}
+
 }  // namespace cloth_sim::core

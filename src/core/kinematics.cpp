@@ -124,6 +124,7 @@ void Kinematics::clear() {
   bodies_.clear();
   attachments_.clear();
   sphere_bodies_.clear();
+  frame_collider_bodies_.clear();
 }
 
 ScriptedMotion Kinematics::hookMotion(const SceneOptions& options, const ClothInputs& inputs, std::size_t pin) {
@@ -148,6 +149,19 @@ void Kinematics::setScene(const SceneOptions& options, const ClothInputs& inputs
   for (std::size_t s = 0; s < options.colliders.spheres.size(); ++s) {
     sphere_bodies_.push_back(addBody({static_cast<std::uint32_t>(bodies_.size()), "sphere " + std::to_string(s),
                                       options.colliders.spheres[s].motion()}));
+  }
+  for (const Gripper& gripper : inputs.grippers) {
+    if (gripper.particles.empty()) continue;  // every particle slipped out: nothing left to carry
+    const std::size_t body = addBody({gripper.id, "gripper " + std::to_string(gripper.id) + " (" + gripper.frame + ")",
+                                      gripper.track});
+    attach({body, gripper.particles, gripper.offsets_m});
+  }
+  for (std::size_t c = 0; c < inputs.frame_colliders.size() && c < options.colliders.frames.size(); ++c) {
+    if (!inputs.frame_colliders[c].seen) continue;
+    const std::size_t body = addBody({static_cast<std::uint32_t>(bodies_.size()),
+                                      "frame collider " + std::to_string(c) + " (" + options.colliders.frames[c].frame + ")",
+                                      inputs.frame_colliders[c].track});
+    frame_collider_bodies_.emplace_back(c, body);
   }
 }
 

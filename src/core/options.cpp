@@ -240,6 +240,28 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
     problems.finiteVector(indexed("boxes", i, "max"), b.max_m, L::kMaxCoordinate_m);
     if ((b.max_m - b.min_m).minCoeff() <= 0.0) problems.fail(indexed("boxes", i, "max") + ": must exceed min on every axis");
   }
+  if (o.colliders.frames.size() > L::kMaxFrameColliders) {
+    problems.fail("frame_colliders: " + std::to_string(o.colliders.frames.size()) + " colliders: at most " +
+                  std::to_string(L::kMaxFrameColliders));
+  }
+  for (std::size_t i = 0; i < o.colliders.frames.size(); ++i) {
+    const FrameCollider& c = o.colliders.frames[i];
+    if (c.frame.empty() || c.frame[0] == '/' || c.frame.size() > L::kMaxTextChars) {
+      problems.fail(indexed("frame_colliders", i, "frame") + " = '" + c.frame.substr(0, kMaxQuotedSelectorChars) +
+                    "': must be a tf frame name without a leading '/', at most " + std::to_string(L::kMaxTextChars) +
+                    " characters");
+    }
+    if (c.shape != ShapeKind::kBox) problems.positive(indexed("frame_colliders", i, "radius"), c.radius_m, L::kMaxClothSide_m);
+    if (c.shape == ShapeKind::kCapsule) problems.inRange(indexed("frame_colliders", i, "length"), c.length_m, 0.0, L::kMaxClothSide_m);
+    if (c.shape == ShapeKind::kBox) {
+      for (int axis = 0; axis < 3; ++axis) {
+        problems.positive(indexed("frame_colliders", i, "size") + "[" + std::to_string(axis) + "]", c.size_m[axis],
+                          L::kMaxClothSide_m);
+      }
+    }
+    problems.finiteVector(indexed("frame_colliders", i, "offset"), c.offset_m, L::kMaxCoordinate_m);
+    problems.finiteVector(indexed("frame_colliders", i, "rpy"), c.rpy_rad, L::kMaxAngle_rad);
+  }
   problems.inRange("contact_depth", o.contact.depth_m, 0.0, L::kMaxContactDepth_m);
   problems.inRange("restitution", o.contact.restitution, 0.0, 1.0);
   problems.inRange("friction", o.contact.friction, 0.0, L::kMaxFriction);

@@ -56,6 +56,10 @@ void Simulation::reset() {
     if (options_.pin_travel_time_s > 0.0) inputs_.pin_travel_m.col(p) = start_m - inputs_.pin_anchors_m.col(p);
   }
   inputs_.grasps.clear();
+  inputs_.grippers.clear();  // the scene starts again as it was built: nothing holds it
+  // The links stay where they were last seen (their frames will say where they go next).
+  inputs_.frame_colliders.resize(options_.colliders.frames.size());
+  gripper_wrenches_.clear();
   memory_ = GuardMemory();
   bound_stale_ = true;
   energy_cache_valid_ = false;
@@ -81,6 +85,10 @@ ContactStats Simulation::integrateFrame(int substeps, StepReport* steps) {
   for (int k = 0; k < substeps; ++k) {
     const double t0_s = state_.time_s;
     if (!options_.colliders.empty()) substep_start_positions_m_ = state_.positions_m;
+    if (!inputs_.grippers.empty()) {
+      last_step_start_velocities_m_per_s_ = state_.velocities_m_per_s;
+      last_step_s_ = step_s;
+    }
     *steps += integrator_->step(force_model_, step_s, state_);
     // Times from the frame start, not summed step by step, so frames land exactly on k / frame_rate.
     state_.time_s = frame_start_s + (k + 1) * step_s;
@@ -88,6 +96,11 @@ ContactStats Simulation::integrateFrame(int substeps, StepReport* steps) {
     if (!options_.colliders.empty()) {
       contacts += resolveContacts(options_.colliders, options_.contact, t0_s, state_.time_s, inverse_mass,
                                   substep_start_positions_m_, state_.positions_m, state_.velocities_m_per_s);
+      if (!options_.colliders.frames.empty()) {
+        contacts += resolveFrameColliders(options_.colliders.frames, inputs_.frame_colliders, options_.contact, t0_s,
+                                          state_.time_s, inverse_mass, substep_start_positions_m_, state_.positions_m,
+                                          state_.velocities_m_per_s);
+      }
     }
   }
   return contacts;
@@ -196,6 +209,7 @@ FrameReport Simulation::advanceFrame() {
           << integratorName(options_.integrator) << " (" << report.stable_step_s << " s): use substeps: auto";
     warning = fixed.str();
   }
+  holdUnmovedBodies();
   frame_start_ = state_;
   const FrameEnvelope envelope = frameEnvelope();
   bool accepted = computeFrame(envelope, first_substeps, &report);
@@ -230,6 +244,7 @@ FrameReport Simulation::advanceFrame() {
     return report;
   }
   if (!report.scene_reset) ++state_.frame;  // a reset scene starts again at frame 0, time 0
+  if (!inputs_.grippers.empty()) measureGripperWrenches();
   if (!report.recovery.empty()) {
     reason << report.recovery;
   } else if (report.recomputed) {
@@ -296,6 +311,7 @@ bool Simulation::retune(const SceneOptions& options, std::string* error) {
     integrator_ = makeIntegrator(options.integrator, options.solver);
   }
   options_ = options;
+  inputs_.frame_colliders.resize(options_.colliders.frames.size());  // new links are unseen until posed
   force_model_.refreshConstraints();  // the pins' swing and the spheres may have changed
   bound_stale_ = true;
   energy_cache_valid_ = false;
@@ -358,6 +374,197 @@ bool Simulation::grab(const GraspRequest& request, std::string* error) {
   energy_cache_valid_ = false;
   force_model_.refreshConstraints();
   return true;
+}
+
+bool Simulation::attachGripper(const GripperRequest& request, std::vector<int>* held, std::string* error) {
+  const std::string name = "gripper " + std::to_string(request.id);
+  const int count = grid_.particleCount();
+  for (const Gripper& gripper : inputs_.grippers) {
+    if (gripper.id == request.id) {
+      *error = name + " is already attached (to '" + gripper.frame + "'): detach it first or use another id";
+      return false;
+    }
+  }
+  if (inputs_.grippers.size() >= kMaxGrippers) {
+    *error = "already " + std::to_string(kMaxGrippers) + " grippers attached: detach one first";
+    return false;
+  }
+  if (!request.pose.position_m.allFinite() || request.pose.position_m.norm() > kMaxGraspReach_m ||
+      !request.pose.orientation.coeffs().allFinite() || request.pose.orientation.norm() == 0.0) {
+    *error = "frame '" + request.frame + "' has a non-finite pose or one beyond " + std::to_string(kMaxGraspReach_m) +
+             " m of the origin";
+    return false;
+  }
+  if (!std::isfinite(request.radius_m) || request.radius_m < 0.0) {
+    *error = "radius " + std::to_string(request.radius_m) + " m: must be finite and >= 0";
+    return false;
+  }
+  if (!std::isfinite(request.max_force_N) || request.max_force_N < 0.0) {
+    *error = "max_force " + std::to_string(request.max_force_N) + " N: must be finite and >= 0 (0: never slips)";
+    return false;
+  }
+  Pose pose = request.pose;
+  pose.orientation.normalize();
+  std::vector<int> particles = request.particles;
+  if (particles.empty()) {
+    if (request.radius_m <= 0.0) {
+      *error = "give particles or a radius > 0";
+      return false;
+    }
+    particles = particlesWithin(state_.positions_m, pose.position_m, request.radius_m);
+    if (particles.empty()) {
+      const int nearest = nearestParticle(pose.position_m);
+      *error = "radius " + std::to_string(request.radius_m) + " m around '" + request.frame +
+               "' catches no particle (the nearest, " + std::to_string(nearest) + ", is " +
+               std::to_string((state_.positions_m.col(nearest) - pose.position_m).norm()) + " m away)";
+      return false;
+    }
+  }
+  for (std::size_t k = 0; k < particles.size(); ++k) {
+    const int particle = particles[k];
+    if (particle < 0 || particle >= count) {
+      *error = "particle " + std::to_string(particle) + " is outside [0, " + std::to_string(count - 1) + "]";
+      return false;
+    }
+    if (std::find(particles.begin(), particles.begin() + static_cast<std::ptrdiff_t>(k), particle) !=
+        particles.begin() + static_cast<std::ptrdiff_t>(k)) {
+      *error = "particle " + std::to_string(particle) + " is listed twice";
+      return false;
+    }
+    if (std::binary_search(inputs_.pins.begin(), inputs_.pins.end(), particle)) {
+      *error = "particle " + std::to_string(particle) + " is already held by its pin";
+      return false;
+    }
+    if (const Gripper* other = inputs_.gripperHolding(particle)) {
+      *error = "particle " + std::to_string(particle) + " is already held by gripper " + std::to_string(other->id) +
+               " ('" + other->frame + "')";
+      return false;
+    }
+  }
+  Gripper gripper;
+  gripper.id = request.id;
+  gripper.frame = request.frame;
+  gripper.particles = particles;
+  gripper.offsets_m = offsetsInFrame(state_.positions_m, particles, pose);
+  gripper.max_force_N = request.max_force_N;
+  gripper.track.start = pose;
+  gripper.track.end = pose;
+  gripper.track.start_time_s = state_.time_s;
+  gripper.track.duration_s = options_.frameDuration_s();
+  inputs_.grippers.push_back(std::move(gripper));
+  bound_stale_ = true;
+  energy_cache_valid_ = false;
+  force_model_.refreshConstraints();
+  // The particles take the frame's velocity (at rest until it moves): a hard constraint from now on.
+  force_model_.enforceConstraints(state_.time_s, state_);
+  *held = std::move(particles);
+  return true;
+}
+
+bool Simulation::detachGripper(std::uint32_t id) {
+  std::vector<Gripper>& grippers = inputs_.grippers;
+  const auto gripper = std::find_if(grippers.begin(), grippers.end(), [id](const Gripper& g) { return g.id == id; });
+  if (gripper == grippers.end()) return false;
+  const auto index = gripper - grippers.begin();
+  grippers.erase(gripper);
+  if (index < static_cast<std::ptrdiff_t>(gripper_wrenches_.size())) gripper_wrenches_.erase(gripper_wrenches_.begin() + index);
+  bound_stale_ = true;
+  energy_cache_valid_ = false;
+  force_model_.refreshConstraints();
+  return true;
+}
+
+bool Simulation::moveGripper(std::uint32_t id, const Pose& end, std::string* error) {
+  for (Gripper& gripper : inputs_.grippers) {
+    if (gripper.id != id) continue;
+    if (!end.position_m.allFinite() || end.position_m.norm() > kMaxGraspReach_m || !end.orientation.coeffs().allFinite() ||
+        end.orientation.norm() == 0.0) {
+      *error = "gripper " + std::to_string(id) + ": the pose of '" + gripper.frame +
+               "' is non-finite or beyond " + std::to_string(kMaxGraspReach_m) + " m of the origin";
+      return false;
+    }
+    Pose unit = end;
+    unit.orientation.normalize();
+    const double frame_s = options_.frameDuration_s();
+    moveTrack(gripper, unit, state_.time_s, frame_s, kMaxGripperSpeed_m_per_s * frame_s);
+    force_model_.refreshConstraints();
+    return true;
+  }
+  *error = "no gripper " + std::to_string(id) + " is attached";
+  return false;
+}
+
+bool Simulation::moveFrameCollider(std::size_t index, const Pose& frame, std::string* error) {
+  if (index >= inputs_.frame_colliders.size()) {
+    *error = "frame collider " + std::to_string(index) + " does not exist (the scene has " +
+             std::to_string(inputs_.frame_colliders.size()) + ")";
+    return false;
+  }
+  const FrameCollider& collider = options_.colliders.frames[index];
+  if (!frame.position_m.allFinite() || frame.position_m.norm() > OptionLimits::kMaxCoordinate_m ||
+      !frame.orientation.coeffs().allFinite() || frame.orientation.norm() == 0.0) {
+    *error = "frame collider " + std::to_string(index) + ": the pose of '" + collider.frame +
+             "' is non-finite or beyond " + std::to_string(OptionLimits::kMaxCoordinate_m) + " m of the origin";
+    return false;
+  }
+  Pose unit = frame;
+  unit.orientation.normalize();
+  const Pose offset = collider.offsetPose();
+  Pose shape;
+  shape.position_m = unit.transform(offset.position_m);
+  shape.orientation = (unit.orientation * offset.orientation).normalized();
+  FrameColliderTrack& entry = inputs_.frame_colliders[index];
+  entry.track.start = entry.seen ? entry.track.end : shape;  // first seen: placed, not swept in from nowhere
+  entry.track.end = shape;
+  entry.track.start_time_s = state_.time_s;
+  entry.track.duration_s = options_.frameDuration_s();
+  entry.seen = true;
+  force_model_.refreshConstraints();
+  return true;
+}
+
+void Simulation::holdUnmovedBodies() {
+  bool changed = false;
+  for (FrameColliderTrack& entry : inputs_.frame_colliders) {
+    if (!entry.seen || (entry.track.start_time_s == state_.time_s && entry.track.duration_s == options_.frameDuration_s())) {
+      continue;
+    }
+    entry.track.start = entry.track.end;
+    entry.track.start_time_s = state_.time_s;
+    entry.track.duration_s = options_.frameDuration_s();
+    changed = true;
+  }
+  for (Gripper& gripper : inputs_.grippers) {
+    if (gripper.track.start_time_s == state_.time_s && gripper.track.duration_s == options_.frameDuration_s()) continue;
+    holdStill(gripper, state_.time_s, options_.frameDuration_s());
+    changed = true;
+  }
+  if (changed) force_model_.refreshConstraints();
+}
+
+void Simulation::measureGripperWrenches() {
+  gripper_forces_N_.resize(3, state_.positions_m.cols());
+  force_model_.forces(state_.positions_m, state_.velocities_m_per_s, state_.time_s, gripper_forces_N_);
+  // The held particles' acceleration over the last substep (the step that ended where they are now).
+  const Eigen::Matrix3Xd accelerations_m_per_s2 =
+      last_step_s_ > 0.0 && last_step_start_velocities_m_per_s_.cols() == state_.velocities_m_per_s.cols()
+          ? Eigen::Matrix3Xd((state_.velocities_m_per_s - last_step_start_velocities_m_per_s_) / last_step_s_)
+          : Eigen::Matrix3Xd(Eigen::Matrix3Xd::Zero(3, state_.velocities_m_per_s.cols()));
+  gripper_wrenches_.clear();
+  bool slipped = false;
+  for (Gripper& gripper : inputs_.grippers) {
+    gripper_wrenches_.push_back(gripperWrench(gripper, gripper.track.end, state_.positions_m, gripper_forces_N_, mass_kg_,
+                                              accelerations_m_per_s2));
+    if (!gripper_wrenches_.back().slipped.empty()) {
+      letSlip(gripper, gripper_wrenches_.back().slipped);
+      slipped = true;
+    }
+  }
+  if (slipped) {
+    bound_stale_ = true;
+    energy_cache_valid_ = false;
+    force_model_.refreshConstraints();
+  }
 }
 
 bool Simulation::release(std::uint32_t id) {
@@ -575,6 +782,24 @@ bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error)
   }
   std::string problem = checkState(snapshot.state, grid_.particleCount());
   if (problem.empty()) problem = checkInputs(snapshot.inputs, inputs_.pins, grid_.particleCount());
+  if (problem.empty() && snapshot.inputs.frame_colliders.size() != options.colliders.frames.size()) {
+    problem = "inputs pose " + std::to_string(snapshot.inputs.frame_colliders.size()) + " frame colliders, the options have " +
+              std::to_string(options.colliders.frames.size());
+  }
+  for (std::size_t c = 0; problem.empty() && c < snapshot.inputs.frame_colliders.size(); ++c) {
+    const PoseTrack& track = snapshot.inputs.frame_colliders[c].track;
+    for (const Pose* pose : {&track.start, &track.end}) {
+      if (!pose->position_m.allFinite() || pose->position_m.norm() > OptionLimits::kMaxCoordinate_m ||
+          !pose->orientation.coeffs().allFinite() || std::abs(pose->orientation.norm() - 1.0) > 1e-6 ||
+          !(track.duration_s > 0.0) || !std::isfinite(track.duration_s) || !std::isfinite(track.start_time_s)) {
+        problem = "frame collider " + std::to_string(c) + " track: poses must be finite with unit quaternions, the duration > 0";
+        break;
+      }
+    }
+  }
+  if (problem.empty()) {
+    problem = checkGrippers(snapshot.inputs.grippers, inputs_.pins, grid_.particleCount(), kMaxGrippers, kMaxGraspReach_m);
+  }
   const GuardMemory& guard = snapshot.guard;
   if (problem.empty() && (guard.auto_scale < 1 || guard.auto_scale > GuardMemory::kMaxScale ||
                           (guard.auto_scale & (guard.auto_scale - 1)) != 0 || guard.consecutive_rollbacks < 0 ||
@@ -597,6 +822,7 @@ bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error)
   inputs_ = snapshot.inputs;
   state_ = snapshot.state;
   memory_ = snapshot.guard;
+  gripper_wrenches_.clear();
   bound_stale_ = true;
   energy_cache_valid_ = false;
   // Which pins hang on hooks follows from the grasps just restored (as grab and release keep it).

@@ -245,6 +245,19 @@ FrameEnvelope frameEnvelope(const EnvelopeInputs& scene) {
     kinematic_work_J += kinematicWork_J(speed_m_per_s, near) +
                         near * 0.5 * mass_kg.maxCoeff() * 4.0 * speed_m_per_s * speed_m_per_s;
   }
+  // A link on a tf frame pushes like a sphere the size of its bounding sphere, at the speed of its
+  // farthest point (origin speed plus the turn times the bounding radius).
+  for (const auto& [collider, body] : kinematics.frameColliderBodies()) {
+    const double bound_m = options.colliders.frames[collider].boundingRadius_m();
+    const Twist twist = kinematics.bodies()[body].twistAt(state.time_s);
+    const double speed_m_per_s = twist.linear_m_per_s.norm() + twist.angular_rad_per_s.norm() * bound_m;
+    const double reach_m = bound_m + speed_m_per_s * frame_s + options.contact.depth_m + cloth_speed_m_per_s * frame_s;
+    const Eigen::Vector3d center_m = kinematics.bodies()[body].poseAt(state.time_s).position_m;
+    const double near = static_cast<double>(
+        ((state.positions_m.colwise() - center_m).colwise().norm().array() <= reach_m).count());
+    kinematic_work_J += kinematicWork_J(speed_m_per_s, near) +
+                        near * 0.5 * mass_kg.maxCoeff() * 4.0 * speed_m_per_s * speed_m_per_s;
+  }
   envelope.energy_allowance_J = StabilityGuard::kEnergySlackFraction * scene_energy_J + kinematic_work_J +
                                 frame_s * wind_force_N * (wind_speed_m_per_s + cloth_speed_m_per_s) +
                                 0.5 * total_mass_kg * kNegligibleSpeed_m_per_s * kNegligibleSpeed_m_per_s +

@@ -258,6 +258,19 @@ std::map<std::string, Setter> makeSetters() {
   s["frame_rate"] = [](const YAML::Node& n, SceneOptions& o) { o.frame_rate_hz = readDouble(n); };
   s["texture"] = [](const YAML::Node& n, SceneOptions& o) { o.texture = readString(n); };
   s["cameras"] = [](const YAML::Node& n, SceneOptions& o) { o.cameras = readCameras(n); };
+  s["frame_colliders"] = [](const YAML::Node& n, SceneOptions& o) {
+    o.colliders.frames = readList<FrameCollider>(
+        n, {"frame", "shape", "radius", "length", "size", "offset", "rpy"},
+        [](const std::string& f, const YAML::Node& v, FrameCollider& c) {
+          if (f == "frame") c.frame = readString(v);
+          if (f == "shape" && !parseShapeName(readString(v), &c.shape)) throw WrongType{"maps whose shape is sphere, capsule or box"};
+          if (f == "radius") c.radius_m = readDouble(v);
+          if (f == "length") c.length_m = readDouble(v);
+          if (f == "size") c.size_m = readVector(v);
+          if (f == "offset") c.offset_m = readVector(v);
+          if (f == "rpy") c.rpy_rad = readVector(v);
+        });
+  };
   return s;
 }
 
@@ -525,6 +538,22 @@ std::string sceneYaml(const SceneOptions& o) {
     out << YAML::Key << "max_range" << YAML::Value << exactNumber(camera.max_range_m);
     out << YAML::Key << "noise" << YAML::Value << depthNoiseName(camera.noise);
     out << YAML::Key << "seed" << YAML::Value << camera.seed << YAML::EndMap;
+  }
+  out << YAML::EndSeq;
+  key("frame_colliders") << YAML::BeginSeq;
+  for (const FrameCollider& collider : o.colliders.frames) {
+    out << YAML::BeginMap << YAML::Key << "frame" << YAML::Value;
+    emitString(out, collider.frame);
+    out << YAML::Key << "shape" << YAML::Value << shapeName(collider.shape);
+    out << YAML::Key << "radius" << YAML::Value << exactNumber(collider.radius_m);
+    out << YAML::Key << "length" << YAML::Value << exactNumber(collider.length_m);
+    out << YAML::Key << "size" << YAML::Value;
+    emitVector(out, collider.size_m);
+    out << YAML::Key << "offset" << YAML::Value;
+    emitVector(out, collider.offset_m);
+    out << YAML::Key << "rpy" << YAML::Value;
+    emitVector(out, collider.rpy_rad);
+    out << YAML::EndMap;
   }
   out << YAML::EndSeq;
   out << YAML::EndMap;

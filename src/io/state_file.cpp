@@ -29,9 +29,23 @@ constexpr char kOptionsTag[4] = {'O', 'P', 'T', 'S'};  ///< the options as scene
 constexpr char kStateTag[4] = {'S', 'T', 'A', 'T'};    ///< ClothState
 constexpr char kInputsTag[4] = {'I', 'N', 'P', 'T'};   ///< ClothInputs
 constexpr char kGuardTag[4] = {'G', 'A', 'R', 'D'};    ///< GuardMemory (version 2 on)
-constexpr std::size_t kSectionCount = 4;
-/// Version 1 files end after the inputs.
+constexpr char kGrippersTag[4] = {'G', 'R', 'I', 'P'};  ///< ClothInputs::grippers (version 3 on)
+constexpr char kLinksTag[4] = {'L', 'I', 'N', 'K'};     ///< ClothInputs::frame_colliders (version 3 on)
+constexpr std::size_t kSectionCount = 6;
+/// Version 1 files end after the inputs, version 2 files after the guard's memory.
 constexpr std::size_t kVersion1SectionCount = 3;
+constexpr std::size_t kVersion2SectionCount = 4;
+/// Bytes of one gripper before its particles: id, max force, two poses of 7 doubles, start time, duration,
+/// the frame name's length and the particle count.
+constexpr std::size_t kGripperFixedBytes = 4 + 8 + 2 * 7 * 8 + 8 + 8 + 8 + 8;
+/// Bytes per held particle: its index and its offset.
+constexpr std::size_t kGripperBytesPerParticle = 4 + 3 * 8;
+/// Most grippers a file may hold (Simulation::kMaxGrippers is checked when it is restored).
+constexpr std::size_t kMaxGrippersInFile = 1024;
+/// Bytes of one frame collider's track: seen (uint8), two poses of 7 doubles, start time, duration.
+constexpr std::size_t kLinkTrackBytes = 1 + 2 * 7 * 8 + 8 + 8;
+/// Most frame colliders a file may pose (the options' list is checked against it when it is restored).
+constexpr std::size_t kMaxLinksInFile = 4096;
 constexpr std::size_t kTagBytes = sizeof(kOptionsTag);
 /// Longest excerpt of a validation problem quoted in an error (it may hold a string from the file).
 constexpr std::size_t kMaxExcerptChars = 80;
@@ -98,6 +112,46 @@ std::string encodeInputs(const ClothInputs& inputs) {
     out.put(grasp.stiffness_N_per_m);
     out.put(grasp.damping_N_s_per_m);
     out.putVector(grasp.extra_force_N);
+  }
+  return out.bytes();
+}
+
+void putPose(Writer& out, const Pose& pose) {
+  out.putVector(pose.position_m);
+  out.put(pose.orientation.w());
+  out.put(pose.orientation.x());
+  out.put(pose.orientation.y());
+  out.put(pose.orientation.z());
+}
+
+std::string encodeGrippers(const std::vector<Gripper>& grippers) {
+  Writer out;
+  out.put(static_cast<std::uint64_t>(grippers.size()));
+  for (const Gripper& gripper : grippers) {
+    out.put(gripper.id);
+    out.put(gripper.max_force_N);
+    putPose(out, gripper.track.start);
+    putPose(out, gripper.track.end);
+    out.put(gripper.track.start_time_s);
+    out.put(gripper.track.duration_s);
+    out.put(static_cast<std::uint64_t>(gripper.frame.size()));
+    out.putBytes(gripper.frame.data(), gripper.frame.size());
+    out.put(static_cast<std::uint64_t>(gripper.particles.size()));
+    for (const int particle : gripper.particles) out.put(static_cast<std::int32_t>(particle));
+    out.putColumns(gripper.offsets_m);
+  }
+  return out.bytes();
+}
+
+std::string encodeLinks(const std::vector<FrameColliderTrack>& links) {
+  Writer out;
+  out.put(static_cast<std::uint64_t>(links.size()));
+  for (const FrameColliderTrack& link : links) {
+    out.put(static_cast<std::uint8_t>(link.seen ? 1 : 0));
+    putPose(out, link.track.start);
+    putPose(out, link.track.end);
+    out.put(link.track.start_time_s);
+    out.put(link.track.duration_s);
   }
   return out.bytes();
 }
@@ -238,6 +292,53 @@ std::string encodeGuard(const GuardMemory& guard) {
   return out.bytes();
 }
 
+Pose getPose(Reader& in) {
+  Pose pose;
+  pose.position_m = in.getVector();
+  const double w = in.get<double>();
+  const double x = in.get<double>();
+  const double y = in.get<double>();
+  const double z = in.get<double>();
+  pose.orientation = Eigen::Quaterniond(w, x, y, z);
+  return pose;
+}
+
+std::vector<Gripper> decodeGrippers(const std::string& bytes) {
+  Reader in(bytes.data(), bytes.size(), "grippers section");
+  std::vector<Gripper> grippers(in.getCount(kGripperFixedBytes, kMaxGrippersInFile, "grippers"));
+  for (Gripper& gripper : grippers) {
+    gripper.id = in.get<std::uint32_t>();
+    gripper.max_force_N = in.get<double>();
+    gripper.track.start = getPose(in);
+    gripper.track.end = getPose(in);
+    gripper.track.start_time_s = in.get<double>();
+    gripper.track.duration_s = in.get<double>();
+    gripper.frame = in.getBytes(in.getCount(1, OptionLimits::kMaxTextChars, "characters of a frame name"));
+    const std::size_t count = in.getCount(kGripperBytesPerParticle, kMaxParticles, "held particles");
+    gripper.particles.resize(count);
+    for (int& particle : gripper.particles) particle = in.get<std::int32_t>();
+    gripper.offsets_m = in.getColumns(count);
+  }
+  in.expectEnd();
+  return grippers;
+}
+
+std::vector<FrameColliderTrack> decodeLinks(const std::string& bytes) {
+  Reader in(bytes.data(), bytes.size(), "frame colliders section");
+  std::vector<FrameColliderTrack> links(in.getCount(kLinkTrackBytes, kMaxLinksInFile, "frame colliders"));
+  for (FrameColliderTrack& link : links) {
+    const auto seen = in.get<std::uint8_t>();
+    if (seen > 1) throw Malformed{"frame colliders section: a seen flag is neither 0 nor 1"};
+    link.seen = seen == 1;
+    link.track.start = getPose(in);
+    link.track.end = getPose(in);
+    link.track.start_time_s = in.get<double>();
+    link.track.duration_s = in.get<double>();
+  }
+  in.expectEnd();
+  return links;
+}
+
 GuardMemory decodeGuard(const std::string& bytes) {
   Reader in(bytes.data(), bytes.size(), "guard section");
   GuardMemory guard;
@@ -278,6 +379,8 @@ std::string encodeStateFile(const SimulationSnapshot& snapshot) {
   payload.section(kStateTag, encodeState(snapshot.state));
   payload.section(kInputsTag, encodeInputs(snapshot.inputs));
   payload.section(kGuardTag, encodeGuard(snapshot.guard));
+  payload.section(kGrippersTag, encodeGrippers(snapshot.inputs.grippers));
+  payload.section(kLinksTag, encodeLinks(snapshot.inputs.frame_colliders));
   Writer file;
   file.putBytes(F::kMagic, sizeof(F::kMagic));
   file.put(F::kByteOrderMark);
@@ -326,8 +429,10 @@ bool decodeStateFile(const std::string& bytes, SimulationSnapshot* snapshot, std
 
     Reader sections(payload, held, "payload");
     std::array<std::string, kSectionCount> parts;
-    const std::array<const char*, kSectionCount> tags{kOptionsTag, kStateTag, kInputsTag, kGuardTag};
-    const std::size_t section_count = version == 1 ? kVersion1SectionCount : kSectionCount;
+    const std::array<const char*, kSectionCount> tags{kOptionsTag, kStateTag, kInputsTag, kGuardTag, kGrippersTag,
+                                                      kLinksTag};
+    const std::size_t section_count =
+        version == 1 ? kVersion1SectionCount : version == 2 ? kVersion2SectionCount : kSectionCount;
     for (std::size_t s = 0; s < section_count; ++s) {
       const std::string expected(tags[s], kTagBytes);
       if (sections.getBytes(kTagBytes) != expected) {
@@ -344,6 +449,12 @@ bool decodeStateFile(const std::string& bytes, SimulationSnapshot* snapshot, std
     read.state = decodeState(parts[1]);
     read.inputs = decodeInputs(parts[2]);
     if (section_count > kVersion1SectionCount) read.guard = decodeGuard(parts[3]);
+    if (section_count > kVersion2SectionCount) {
+      read.inputs.grippers = decodeGrippers(parts[4]);
+      read.inputs.frame_colliders = decodeLinks(parts[5]);
+    } else {
+      read.inputs.frame_colliders.resize(read.options.colliders.frames.size());  // older files have none
+    }
     const int particles = read.options.rows * read.options.cols;
     if (read.state.particleCount() != particles) {
       throw Malformed{"state section: " + std::to_string(read.state.particleCount()) + " particles for a " +

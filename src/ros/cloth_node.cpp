@@ -22,7 +22,8 @@ namespace {
 /// Private parameters that belong to the node rather than to the scene.
 const std::set<std::string>& nodeOnlyParameters() {
   static const std::set<std::string> names{Names::kSceneParam, Names::kFrameIdParam, Names::kMeshRateParam,
-                                           Names::kParentFrameParam, Names::kTuningNamespace};
+                                           Names::kParentFrameParam, Names::kTuningNamespace,
+                                           Names::kRobotDescriptionParam};
   return names;
 }
 
@@ -54,13 +55,35 @@ bool ClothNode::start(std::string* error) {
   XmlRpc::XmlRpcValue parameters;
   if (!ros::param::get(pnh_.getNamespace(), parameters)) parameters = XmlRpc::XmlRpcValue();
   std::string parent_frame;
+  std::string robot_description;
   std::string scene = kDefaultScene;
   double mesh_rate_hz = 0.0;  // not given: the frame rate, known once the scene is built
   if (!optionalParameter(parameters, Names::kFrameIdParam, &frame_id_, error) ||
       !optionalParameter(parameters, Names::kParentFrameParam, &parent_frame, error) ||
       !optionalParameter(parameters, Names::kSceneParam, &scene, error) ||
-      !optionalParameter(parameters, Names::kMeshRateParam, &mesh_rate_hz, error)) {
+      !optionalParameter(parameters, Names::kMeshRateParam, &mesh_rate_hz, error) ||
+      !optionalParameter(parameters, Names::kRobotDescriptionParam, &robot_description, error)) {
     return false;
+  }
+  if (!robot_description.empty()) {
+    std::string urdf_xml;
+    if (!nh_.getParam(robot_description, urdf_xml)) {
+      *error = "parameter ~robot_description = '" + robot_description + "': no string parameter " +
+               nh_.resolveName(robot_description) + " holds a URDF";
+      return false;
+    }
+    std::vector<std::string> mesh_links;
+    std::string why;
+    if (!collidersFromUrdf(urdf_xml, &urdf_colliders_, &mesh_links, &why)) {
+      *error = "parameter " + nh_.resolveName(robot_description) + ": " + why;
+      return false;
+    }
+    if (!mesh_links.empty()) {
+      ROS_WARN("cloth_node: %s: skipping the mesh collisions of links %s (only spheres, cylinders and boxes collide)",
+               nh_.resolveName(robot_description).c_str(), join(mesh_links, ", ").c_str());
+    }
+    ROS_INFO("cloth_node: %zu colliders from the URDF in %s", urdf_colliders_.size(),
+             nh_.resolveName(robot_description).c_str());
   }
   for (const auto& [name, value] : {std::pair<const char*, const std::string*>{Names::kFrameIdParam, &frame_id_},
                                     {Names::kParentFrameParam, &parent_frame}, {Names::kSceneParam, &scene}}) {
@@ -107,6 +130,9 @@ bool ClothNode::start(std::string* error) {
   grasp_sub_ = pnh_.subscribe(grasp_options);
   grasp_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &grasp_receive_queue_);
   grasp_spinner_->start();
+  grippers_ = std::make_unique<Grippers>(pnh_, frame_inputs_, frame_id_, [this]() -> core::Simulation& { return *simulation_; });
+  frame_colliders_ = std::make_unique<FrameColliderInputs>(frame_inputs_, frame_id_,
+                                                           [this]() -> core::Simulation& { return *simulation_; });
   // The mouse's commands join ~grasp's queue, so they are applied in order with the topic's.
   mouse_ = std::make_unique<MouseDrag>(pnh_.resolveName(Names::kMouseNamespace), [this](const cloth_sim::Grasp& grasp) {
     onGraspReceived(boost::make_shared<const cloth_sim::Grasp>(grasp));
@@ -139,6 +165,8 @@ bool ClothNode::start(std::string* error) {
   diagnostics_.setHardwareID("cloth_sim");
   diagnostics_.add("simulation", this, &ClothNode::diagnose);
   diagnostics_.add("cameras", cameras_.get(), &DepthCameras::diagnose);
+  diagnostics_.add("grippers", grippers_.get(), &Grippers::diagnose);
+  diagnostics_.add("frame colliders", frame_colliders_.get(), &FrameColliderInputs::diagnose);
   window_start_ = std::chrono::steady_clock::now();
 
   if (!parent_frame.empty()) {
@@ -200,6 +228,15 @@ std::unique_ptr<core::Simulation> ClothNode::buildSimulation(const std::string& 
       }
     }
   }
+  if (!urdf_colliders_.empty()) {
+    // The robot's links touch every scene it loads.
+    options.colliders.frames.insert(options.colliders.frames.end(), urdf_colliders_.begin(), urdf_colliders_.end());
+    const std::vector<std::string> problems = core::validateSceneOptions(options);
+    if (!problems.empty()) {
+      *error = "scene '" + scene + "' with the URDF's colliders: " + join(problems, "; ");
+      return nullptr;
+    }
+  }
   std::unique_ptr<core::Simulation> simulation;
   try {
     simulation = std::make_unique<core::Simulation>(options);
@@ -223,6 +260,7 @@ void ClothNode::install(std::unique_ptr<core::Simulation> simulation) {
   const ros::Duration frame_period(simulation->options().frameDuration_s());
   cancelStep("the scene was replaced");
   simulation_ = std::move(simulation);
+  if (grippers_) grippers_->synchronize();  // a new scene holds nothing
   step_cost_ms_ = 0.0;  // the old scene's cost says nothing about this one's
   timer_.setPeriod(frame_period);
   last_report_ = core::FrameReport();
@@ -275,7 +313,14 @@ void ClothNode::onTimer(const ros::TimerEvent&) {
 bool ClothNode::advanceFrames(int frames) {
   for (int k = 0; k < frames && ros::ok(); ++k) {  // a shutdown does not wait for the frames owed
     const auto start = std::chrono::steady_clock::now();
+    const bool gripped = !simulation_->grippers().empty();
+    if (gripped) grippers_->beforeFrame(frameTime(simulation_->state().frame + 1));
+    if (!simulation_->options().colliders.frames.empty()) frame_colliders_->beforeFrame(frameTime(simulation_->state().frame + 1));
     last_report_ = simulation_->advanceFrame();
+    if (gripped) {
+      if (last_report_.scene_reset) grippers_->synchronize();  // a recovery's reset let every gripper go
+      grippers_->afterFrame(frameTime(simulation_->state().frame));
+    }
     step_cost_ms_ =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() * kMillisecondsPerSecond;
     frame_budget_.addFrame(step_cost_ms_);
@@ -294,6 +339,13 @@ bool ClothNode::advanceFrames(int frames) {
     window_sim_s_ += simulation_->options().frameDuration_s();
   }
   return true;
+}
+
+ros::Time ClothNode::frameTime(std::uint64_t frame) const {
+  if (!anchored_) return ros::Time::now();
+  const double since_anchor_s =
+      (static_cast<double>(frame) - static_cast<double>(anchor_frame_)) / simulation_->options().frame_rate_hz;
+  return anchor_time_ + ros::Duration(since_anchor_s);
 }
 
 void ClothNode::publish(const ros::Time& stamp) {
@@ -424,6 +476,7 @@ void ClothNode::applyGrasp(const cloth_sim::Grasp::ConstPtr& message) {
 bool ClothNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
   cancelStep("~reset restarted the scene");
   simulation_->reset();
+  grippers_->synchronize();  // a reset lets every gripper go
   reanchor();
   publish(ros::Time::now());
   response.success = true;
@@ -808,6 +861,7 @@ bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::L
     return refuse("its texture does not load");
   }
   if (!simulation_->restore(snapshot, &error)) return refuse(error);
+  grippers_->synchronize();  // the file's grippers follow their frames by name
   cancelStep("~load_state replaced the state");
   if (new_texture) simulation_->setVertexColors(colors);
   timer_.setPeriod(ros::Duration(simulation_->options().frameDuration_s()));

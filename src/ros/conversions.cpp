@@ -88,6 +88,39 @@ visualization_msgs::MarkerArray toColliderMarkers(const core::Simulation& simula
                                              (box.max_m - box.min_m - Eigen::Vector3d::Constant(2.0 * kDrawnInset_m))
                                                  .cwiseMax(kMinDrawnSize_m)));
   }
+  // Links on tf frames, where their shapes stand now (a capsule as a cylinder and its two end spheres);
+  // a link whose frame has not been seen yet is not drawn.
+  int link_marker = 0;
+  for (std::size_t i = 0; i < colliders.frames.size() && i < simulation.frameColliders().size(); ++i) {
+    if (!simulation.frameColliders()[i].seen) continue;
+    const core::FrameCollider& link = colliders.frames[i];
+    const core::Pose pose = simulation.frameColliders()[i].track.atTime(simulation.state().time_s);
+    const double diameter_m = std::max(2.0 * (link.radius_m - kDrawnInset_m), kMinDrawnSize_m);
+    switch (link.shape) {
+      case core::ShapeKind::kSphere:
+        markers.markers.push_back(colliderMarker(frame_id, stamp, "frame_colliders", link_marker++,
+                                                 visualization_msgs::Marker::SPHERE, pose.position_m, pose.orientation,
+                                                 Eigen::Vector3d::Constant(diameter_m)));
+        break;
+      case core::ShapeKind::kCapsule:
+        markers.markers.push_back(colliderMarker(frame_id, stamp, "frame_colliders", link_marker++,
+                                                 visualization_msgs::Marker::CYLINDER, pose.position_m, pose.orientation,
+                                                 Eigen::Vector3d(diameter_m, diameter_m, std::max(link.length_m, kMinDrawnSize_m))));
+        for (const double end : {-0.5, 0.5}) {
+          markers.markers.push_back(colliderMarker(
+              frame_id, stamp, "frame_colliders", link_marker++, visualization_msgs::Marker::SPHERE,
+              pose.transform(Eigen::Vector3d(0.0, 0.0, end * link.length_m)), pose.orientation,
+              Eigen::Vector3d::Constant(diameter_m)));
+        }
+        break;
+      case core::ShapeKind::kBox:
+        markers.markers.push_back(colliderMarker(frame_id, stamp, "frame_colliders", link_marker++,
+                                                 visualization_msgs::Marker::CUBE, pose.position_m, pose.orientation,
+                                                 (link.size_m - Eigen::Vector3d::Constant(2.0 * kDrawnInset_m))
+                                                     .cwiseMax(kMinDrawnSize_m)));
+        break;
+    }
+  }
   for (std::size_t i = 0; i < colliders.planes.size(); ++i) {
     const core::PlaneCollider& plane = colliders.planes[i];
     // The slab's top face lies kDrawnInset_m under the plane, on the collider's side.

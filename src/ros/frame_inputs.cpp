@@ -22,4 +22,19 @@ bool FrameInputs::poseOf(const std::string& child, const std::string& frame, con
   }
 }
 
+bool FrameInputs::poseAtOrNewest(const std::string& child, const std::string& frame, const ros::Time& time,
+                                 core::Pose* pose, ros::Time* stamp, std::string* why) const {
+  try {
+    const geometry_msgs::TransformStamped transform =
+        buffer_.canTransform(frame, child, time) ? buffer_.lookupTransform(frame, child, time)
+                                                 : buffer_.lookupTransform(frame, child, ros::Time(0));
+    *pose = toPose(transform);
+    *stamp = transform.header.stamp;
+    return true;
+  } catch (const tf2::TransformException& e) {
+    *why = e.what();
+    return false;
+  }
+}
+
 }  // namespace cloth_sim

@@ -7,6 +7,7 @@
 //
 // The scene is built exactly as the node builds it: the scene file, then every override through the scene-file
 // parser (applySceneYaml) and one validation (validateSceneOptions), so a key means here what it means there.
+#include "cloth_sim/core/constants.h"
 #include "cloth_sim/core/options.h"
 #include "cloth_sim/core/simulation.h"
 #include "cloth_sim/core/state.h"
@@ -31,6 +32,7 @@
 #include <iterator>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -51,6 +53,18 @@ using cloth_sim::bench::kExitRunFailed;
 using cloth_sim::bench::kExitUsage;  // also --bullet without Bullet
 
 constexpr int kDefaultFrames = 100;
+/// --capsules: each capsule's radius and core length, m, its gap to the cloth at rest and how far it
+/// presses in (its surface goes from gap off the cloth to press - gap into it).
+constexpr double kBenchCapsuleRadius_m = 0.03;
+constexpr double kBenchCapsuleLength_m = 0.2;
+constexpr double kBenchCapsuleGap_m = 0.01;
+constexpr double kBenchCapsulePress_m = 0.02;
+
+/// --grippers: how far each gripper circles (m) and how often (Hz, --capsules swing at the same rate), so
+/// that its track, constraint and wrench are all exercised.
+constexpr double kGripperCircle_m = 0.02;
+constexpr double kGripperCircle_Hz = 1.0;
+
 /// Frames run before timing starts: the first frames pay for allocations and cold caches.
 constexpr int kDefaultWarmupFrames = 5;
 constexpr int kDefaultBulletIterations = 1;
@@ -92,6 +106,10 @@ Times a cloth scene and prints one JSON line on stdout.
   --stop-above-strain X  end the run at the first frame whose structural strain exceeds X, that rolls back or
                          that is not finite: the setting has failed, and a diverging frame costs the guard up
                          to 15 times the substeps (not used with --bullet)
+  --capsules N           add N capsule frame colliders (radius 3 cm, core 20 cm) spread across the cloth, each
+                         lying along it and pressing 1 cm in and out of it at 1 Hz: the cost of robot links
+  --grippers N           hold the cloth with N grippers (Simulation::attachGripper) along its bottom row, each
+                         holding one particle and circling 2 cm at 1 Hz: the cost of grippers (0: none)
   --help                 this text
 
 Other modes (each with its own --help): --accuracy (speed against accuracy of every integrator and substep count
@@ -121,6 +139,8 @@ struct BenchOptions {
   bool bullet = false;
   std::optional<int> bullet_iterations;  ///< set only by --iterations
   std::optional<double> stop_above_strain;  ///< set only by --stop-above-strain
+  int grippers = 0;                         ///< --grippers N
+  int capsules = 0;                         ///< --capsules N
   bool help = false;
 };
 
@@ -141,7 +161,7 @@ constexpr std::pair<const char*, const char*> kSceneKeyFlags[] = {
 /// The other flags that take a value.
 constexpr const char* kValueFlags[] = {"--scene",      "--scenes-dir", "--set",
                                        "--frames",     "--warmup",     "--iterations",
-                                       "--stop-above-strain"};
+                                       "--stop-above-strain", "--grippers", "--capsules"};
 
 /// The scene key a shorthand flag stands for, or nullptr.
 const char* sceneKeyOf(const std::string& flag) {
@@ -189,6 +209,10 @@ void parseCommandLine(int argc, char** argv, BenchOptions* options, std::vector<
       cloth_sim::bench::parseSceneSetting(value, &options->overrides, errors);
     } else if (flag == "--frames") {
       parseCount(flag, value, 1, &options->frames, errors);
+    } else if (flag == "--capsules") {
+      parseCount(flag, value, 0, &options->capsules, errors);
+    } else if (flag == "--grippers") {
+      parseCount(flag, value, 0, &options->grippers, errors);
     } else if (flag == "--warmup") {
       parseCount(flag, value, 0, &options->warmup_frames, errors);
     } else if (flag == "--iterations") {
@@ -204,6 +228,12 @@ void parseCommandLine(int argc, char** argv, BenchOptions* options, std::vector<
     }
   }
 
+  if (options->grippers > 0 && options->bullet) errors->push_back("--grippers: Bullet's run has no grippers");
+  if (options->capsules > 0 && options->bullet) errors->push_back("--capsules: Bullet's run has no frame colliders");
+  if (options->grippers > static_cast<int>(core::Simulation::kMaxGrippers)) {
+    errors->push_back("--grippers " + std::to_string(options->grippers) + ": at most " +
+                      std::to_string(core::Simulation::kMaxGrippers));
+  }
   if (options->stop_above_strain && options->bullet) {
     errors->push_back("--stop-above-strain: Bullet's run cannot stop early (it checks its strain after the run)");
   }
@@ -222,6 +252,14 @@ bool buildScene(const BenchOptions& options, core::SceneOptions* scene, std::vec
     return false;
   }
   if (options.dynamic) cloth_sim::bench::makeDynamic(scene);
+  for (int k = 0; k < options.capsules; ++k) {
+    core::FrameCollider capsule;
+    capsule.frame = "bench_capsule_" + std::to_string(k);
+    capsule.shape = core::ShapeKind::kCapsule;
+    capsule.radius_m = kBenchCapsuleRadius_m;
+    capsule.length_m = kBenchCapsuleLength_m;
+    scene->colliders.frames.push_back(capsule);
+  }
   return cloth_sim::bench::validateInto(*scene, errors);
 }
 
@@ -283,9 +321,60 @@ std::string stopReason(const BenchOptions& options, const core::FrameReport& rep
   return reason.str();
 }
 
+/// Where --capsules' capsule k of `count` is at time_s: lying along the cloth's u axis over its rest
+/// surface at an even spread over its diagonal, its surface moving between 1 cm off the cloth and 1 cm
+/// into it along the surface's normal at kGripperCircle_Hz (a link brushing the cloth, every frame checked
+/// against every particle).
+core::Pose benchCapsulePose(const core::Simulation& sim, int k, int count, double time_s) {
+  const core::ClothGrid& grid = sim.grid();
+  const int rows = grid.rows;
+  const int cols = grid.cols;
+  const double share = (k + 1.0) / (count + 1.0);
+  const int particle = static_cast<int>(share * (rows - 1)) * cols + static_cast<int>(share * (cols - 1));
+  const Eigen::Vector3d u = sim.options().u_axis.normalized();
+  const Eigen::Vector3d normal = u.cross(sim.options().v_axis).normalized();
+  const double press_m = kBenchCapsulePress_m * 0.5 * (1.0 - std::cos(core::kTwoPi * kGripperCircle_Hz * time_s));
+  core::Pose pose;
+  pose.position_m = grid.rest_positions_m.col(particle) + (kBenchCapsuleRadius_m + kBenchCapsuleGap_m - press_m) * normal;
+  pose.orientation = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), u);
+  return pose;
+}
+
+/// Attaches `count` grippers along the bottom row (free in every built-in scene's pinning), one particle
+/// each, spread evenly. Returns their starting poses.
+std::vector<core::Pose> attachBenchGrippers(core::Simulation& sim, int count) {
+  std::vector<core::Pose> poses;
+  const int cols = sim.grid().cols;
+  const int bottom_row = (sim.grid().rows - 1) * cols;
+  for (int k = 0; k < count; ++k) {
+    const int particle = bottom_row + (count == 1 ? cols / 2 : k * (cols - 1) / (count - 1));
+    core::GripperRequest request;
+    request.id = static_cast<std::uint32_t>(k);
+    request.frame = "bench_" + std::to_string(k);
+    request.pose.position_m = sim.state().positions_m.col(particle);
+    request.particles = {particle};
+    std::vector<int> held;
+    std::string error;
+    if (!sim.attachGripper(request, &held, &error)) throw std::runtime_error("--grippers: " + error);
+    poses.push_back(request.pose);
+  }
+  return poses;
+}
+
+void moveBenchGrippers(core::Simulation& sim, const std::vector<core::Pose>& homes) {
+  const double phase = core::kTwoPi * kGripperCircle_Hz * (sim.state().time_s + sim.options().frameDuration_s());
+  for (std::size_t k = 0; k < homes.size(); ++k) {
+    core::Pose pose = homes[k];
+    pose.position_m += kGripperCircle_m * Eigen::Vector3d(std::cos(phase) - 1.0, std::sin(phase), 0.0);
+    std::string error;
+    sim.moveGripper(static_cast<std::uint32_t>(k), pose, &error);
+  }
+}
+
 /// Runs warm-up and timed frames of our simulator.
 BenchResult runOurs(const BenchOptions& options, const core::SceneOptions& scene) {
   core::Simulation sim(scene);
+  const std::vector<core::Pose> gripper_homes = attachBenchGrippers(sim, options.grippers);
   BenchResult result;
   result.side = "cloth_sim";
   result.integrator = core::integratorName(scene.integrator);
@@ -299,6 +388,13 @@ BenchResult runOurs(const BenchOptions& options, const core::SceneOptions& scene
   const int total_frames = options.warmup_frames + options.frames;
   for (int frame = 0; frame < total_frames; ++frame) {
     const Clock::time_point start = Clock::now();
+    moveBenchGrippers(sim, gripper_homes);
+    for (int k = 0; k < options.capsules; ++k) {
+      std::string error;
+      sim.moveFrameCollider(static_cast<std::size_t>(k),
+                            benchCapsulePose(sim, k, options.capsules, sim.state().time_s + sim.options().frameDuration_s()),
+                            &error);
+    }
     const core::FrameReport report = sim.advanceFrame();
     const double ms = millisecondsSince(start);
 
@@ -447,6 +543,8 @@ std::string toJson(const BenchOptions& options, const core::SceneOptions& scene,
   json.add("iterations", r.iterations)
       .add("stiffness", r.stiffness)
       .add("dynamic", options.dynamic)
+      .add("grippers", options.grippers)
+      .add("capsules", options.capsules)
       .add("frames", options.frames)
       .add("warmup", options.bullet ? 0 : options.warmup_frames)
       .add("frames_timed", r.frames_timed)

@@ -85,9 +85,9 @@ TEST_P(EveryScene, At128x128ItsOwnDefaultsRunASecondWithNoFrameRolledBackAndAuto
   EXPECT_TRUE(isFiniteAndBounded(sim.state(), Simulation::kDivergenceBound_m));
 }
 
-TEST(Scenes, TheBuiltinSceneListIsTheSevenScenes) {
-  EXPECT_EQ(builtinSceneNames(test::scenesDir()),
-            (std::vector<std::string>{"ball", "curtain", "drape", "drop", "flag", "hanging", "tablecloth"}));
+TEST(Scenes, TheBuiltinSceneListIsTheEightScenes) {
+  EXPECT_EQ(builtinSceneNames(test::scenesDir()), (std::vector<std::string>{"ball", "curtain", "drape", "drop", "flag",
+                                                                            "hanging", "robot", "tablecloth"}));
 }
 
 TEST(Scenes, HangingFileIsTheDefaults) {

@@ -17,6 +17,7 @@
 // thin box or a fast sphere within one substep is caught at its entry point and counted.
 #pragma once
 
+#include "cloth_sim/core/frame_colliders.h"
 #include "cloth_sim/core/kinematics.h"
 
 #include <Eigen/Core>
@@ -82,7 +83,9 @@ struct ColliderSet {
   std::vector<PlaneCollider> planes;
   std::vector<SphereCollider> spheres;
   std::vector<BoxCollider> boxes;
-  bool empty() const { return planes.empty() && spheres.empty() && boxes.empty(); }
+  /// Robot links on tf frames (frame_colliders.h); their poses are inputs (ClothInputs::frame_colliders).
+  std::vector<FrameCollider> frames;
+  bool empty() const { return planes.empty() && spheres.empty() && boxes.empty() && frames.empty(); }
 };
 
 /// Resolves contacts after a substep from t0 to t1: positions/velocities are the substep's result,
@@ -90,6 +93,24 @@ struct ColliderSet {
 ContactStats resolveContacts(const ColliderSet& colliders, const ContactOptions& options, double t0_s, double t1_s,
                              const Eigen::VectorXd& inverse_mass_per_kg, const Eigen::Matrix3Xd& previous_positions_m,
                              Eigen::Matrix3Xd& positions_m, Eigen::Matrix3Xd& velocities_m_per_s);
+
+/// Resolves contacts with colliders on moving, turning frames after a substep from t0 to t1 (the same
+/// band, response and friction as resolveContacts). Each particle's substep is seen in the shape's own
+/// frame, where the shape stands still: it moves from pose(t0)^-1 x0 to pose(t1)^-1 x1. A particle that
+/// ends inside is pushed out to the nearest surface point; one whose path crossed the shape within the
+/// substep (sampled at half the shape's thickness) or reached its far side goes back to where it entered.
+/// So no free particle ends a substep deeper than the band inside a frame collider, at any link speed.
+/// Velocities are made relative to the surface point's velocity (the track's twist). Unseen tracks and
+/// particles with zero inverse mass are left alone.
+ContactStats resolveFrameColliders(const std::vector<FrameCollider>& colliders,
+                                   const std::vector<FrameColliderTrack>& tracks, const ContactOptions& options,
+                                   double t0_s, double t1_s, const Eigen::VectorXd& inverse_mass_per_kg,
+                                   const Eigen::Matrix3Xd& previous_positions_m, Eigen::Matrix3Xd& positions_m,
+                                   Eigen::Matrix3Xd& velocities_m_per_s);
+/// The deepest a particle sits inside any seen frame collider at time_s, m (0 when none is inside).
+double maxFrameColliderPenetration(const std::vector<FrameCollider>& colliders,
+                                   const std::vector<FrameColliderTrack>& tracks, double time_s,
+                                   const Eigen::Matrix3Xd& positions_m);
 
 /// The deepest a particle sits inside any collider, m (negative signed distance); 0 when none is inside.
 double maxPenetration(const ColliderSet& colliders, double time_s, const Eigen::Matrix3Xd& positions_m);

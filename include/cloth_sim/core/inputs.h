@@ -4,13 +4,31 @@
 #pragma once
 
 #include "cloth_sim/core/forces.h"
+#include "cloth_sim/core/frame_colliders.h"
+#include "cloth_sim/core/kinematics.h"
 
 #include <Eigen/Core>
 
 #include <algorithm>
+#include <cstdint>
+#include <string>
 #include <vector>
 
 namespace cloth_sim::core {
+
+/// A gripper: particles held rigidly in a tf frame (issue 14). Each keeps the offset it had in the frame
+/// when it was attached; the frame's motion over the current frame is `track` (world frame), so the held
+/// particles follow it, rotation included, as a hard constraint in every integrator (Kinematics).
+struct Gripper {
+  std::uint32_t id = 0;
+  std::string frame;           ///< the tf frame it follows (the core only carries the name, for messages)
+  std::vector<int> particles;  ///< held particles, in the order they were attached
+  Eigen::Matrix3Xd offsets_m;  ///< 3 x particles.size(): each particle's place in the gripper's frame, m
+  /// N: a held particle whose reaction exceeds this slips out of the gripper (0: never).
+  double max_force_N = 0.0;
+  /// From the pose at the start of the current frame to the pose at its end.
+  PoseTrack track;
+};
 
 struct ClothInputs {
   /// Mean wind velocity in force, world frame, m/s (gusts modulate it; options.wind_enabled switches it).
@@ -26,9 +44,24 @@ struct ClothInputs {
   /// options.pin_travel_time_s. Zero once a pin is hooked again after a grasp.
   Eigen::Matrix3Xd pin_travel_m;
 
+  /// Grippers holding particles rigidly (Simulation::attachGripper); at most Simulation::kMaxGrippers.
+  std::vector<Gripper> grippers;
+  /// Where each of options.colliders.frames is over the current frame (Simulation::moveFrameCollider), one
+  /// per collider, in that order.
+  std::vector<FrameColliderTrack> frame_colliders;
+
   /// True when a grasp holds particle i (a held pin is off its hook and moves freely).
   bool isGrasped(int particle) const {
     return std::any_of(grasps.begin(), grasps.end(), [particle](const Grasp& g) { return g.particle == particle; });
+  }
+  /// The gripper holding particle i, or nullptr.
+  const Gripper* gripperHolding(int particle) const {
+    for (const Gripper& gripper : grippers) {
+      if (std::find(gripper.particles.begin(), gripper.particles.end(), particle) != gripper.particles.end()) {
+        return &gripper;
+      }
+    }
+    return nullptr;
   }
 };
 

@@ -21,6 +21,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -142,10 +143,14 @@ class Kinematics {
   static ScriptedMotion hookMotion(const SceneOptions& options, const ClothInputs& inputs, std::size_t pin);
   /// Rebuilds the bodies of today's scenes from their options and inputs: a hook per pin that no grasp
   /// holds (the scene's swing and travel, the hook from inputs.pin_anchors_m), holding its particle at
-  /// offset zero, then a body per sphere collider (in options.colliders.spheres order, see sphereBody).
+  /// offset zero, then a body per sphere collider (in options.colliders.spheres order, see sphereBody),
+  /// then a body per gripper holding particles (inputs.grippers order), moving on the gripper's track.
   void setScene(const SceneOptions& options, const ClothInputs& inputs);
   /// The body of options.colliders.spheres[sphere] after setScene.
   std::size_t sphereBody(std::size_t sphere) const { return sphere_bodies_[sphere]; }
+  /// The bodies of the frame colliders seen so far, with the index of their collider in
+  /// options.colliders.frames (after setScene, which adds them after the grippers).
+  const std::vector<std::pair<std::size_t, std::size_t>>& frameColliderBodies() const { return frame_collider_bodies_; }
 
   /// Sets inverse_mass_per_kg to 0 on every held particle (the constrained mask); others untouched.
   void maskConstrained(Eigen::VectorXd& inverse_mass_per_kg) const;
@@ -163,6 +168,7 @@ class Kinematics {
   std::vector<Body> bodies_;
   std::vector<Attachment> attachments_;
   std::vector<std::size_t> sphere_bodies_;
+  std::vector<std::pair<std::size_t, std::size_t>> frame_collider_bodies_;  ///< {collider, body}
 };
 
 }  // namespace cloth_sim::core

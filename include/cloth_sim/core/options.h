@@ -37,6 +37,10 @@ struct OptionLimits {
   /// 1e-27 kg sits below that rounding, and every frame of it was rolled back (`mass: 1e-50` froze for
   /// good). 1 mg keeps 20 orders of magnitude from there at every stiffness the options accept.
   static constexpr double kMinMass_kg = 1e-6;
+  /// Most colliders on tf frames (frame_colliders plus a URDF's links).
+  static constexpr std::size_t kMaxFrameColliders = 256;
+  /// Largest roll, pitch or yaw a frame collider's offset may give, rad (a few turns either way).
+  static constexpr double kMaxAngle_rad = 100.0;
   static constexpr double kMaxCoordinate_m = 1000.0;        ///< cloth, colliders and pin motion
   static constexpr double kMaxAcceleration_m_per_s2 = 1000.0;  ///< gravity
   static constexpr double kMaxColliderSpeed_m_per_s = 100.0;  ///< peak: drift plus swing |A| 2 pi / T

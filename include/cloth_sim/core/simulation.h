@@ -6,6 +6,7 @@
 #include "cloth_sim/core/force_model.h"
 #include "cloth_sim/core/forces.h"
 #include "cloth_sim/core/grid.h"
+#include "cloth_sim/core/grippers.h"
 #include "cloth_sim/core/inputs.h"
 #include "cloth_sim/core/integrators.h"
 #include "cloth_sim/core/options.h"
@@ -30,6 +31,17 @@ struct GraspRequest {
   Eigen::Vector3d target_m = Eigen::Vector3d::Zero();  ///< world frame
   double stiffness_N_per_m = 0.0;
   Eigen::Vector3d extra_force_N = Eigen::Vector3d::Zero();
+};
+
+/// A request to hold particles rigidly in a frame (issue 14's ~attach). Empty particles: every particle
+/// within radius_m of the frame's origin. max_force_N 0: never slips.
+struct GripperRequest {
+  std::uint32_t id = 0;
+  std::string frame;  ///< the tf frame's name, kept for messages
+  Pose pose;          ///< the frame's pose now, world frame
+  double radius_m = 0.0;
+  std::vector<int> particles;
+  double max_force_N = 0.0;
 };
 
 struct EnergyReport {
@@ -74,6 +86,12 @@ class Simulation {
   static constexpr double kMaxGraspForce_N = 1e4;
   /// Most grasps held at once; each costs work in every force evaluation.
   static constexpr std::size_t kMaxGrasps = 16;
+  /// Most grippers held at once (the issue asks for at least 8).
+  static constexpr std::size_t kMaxGrippers = 16;
+  /// Fastest a gripper's origin is followed, m/s: a frame that leaps further in one frame (tf lost it and
+  /// it reappears far away) is caught up with at this speed over several frames, so the cloth is carried,
+  /// not torn. 5x the robot-link speed the issue asks to handle.
+  static constexpr double kMaxGripperSpeed_m_per_s = 25.0;
   /// A rejected frame is recomputed with 2x, 4x, ... 2^kGuardDoublings x the substeps before it is rolled back.
   static constexpr int kGuardDoublings = StabilityGuard::kDefaultDoublings;
 
@@ -125,6 +143,29 @@ class Simulation {
   /// Lets go; a pin no other grasp holds is hooked again where it was let go. False if no grasp has that id.
   bool release(std::uint32_t id);
   const std::vector<Grasp>& grasps() const { return inputs_.grasps; }
+
+  /// Holds particles rigidly in a frame: each keeps the offset it has in request.pose now, and follows the
+  /// frame as moveGripper moves it. *held gets the particles now held. False with *error (nothing changed)
+  /// for an id in use, non-finite or negative values, a particle out of range, pinned or held by another
+  /// gripper (named), a radius that catches nothing, or more than kMaxGrippers grippers.
+  bool attachGripper(const GripperRequest& request, std::vector<int>* held, std::string* error);
+  /// Lets go of a gripper's particles (they fall). False if no gripper has that id.
+  bool detachGripper(std::uint32_t id);
+  /// Where gripper `id`'s frame is at the end of the next frame (world frame): the held particles move
+  /// there over that frame, rotation included (at most kMaxGripperSpeed_m_per_s). Without a call before a
+  /// frame the gripper stays where it was. False with *error for an unknown id or a non-finite pose.
+  bool moveGripper(std::uint32_t id, const Pose& end, std::string* error);
+  const std::vector<Gripper>& grippers() const { return inputs_.grippers; }
+  /// Where frame collider `index` (options().colliders.frames) is at the end of the next frame: `frame` is
+  /// its tf frame's pose (world frame), composed here with the collider's offset. Its first pose places it
+  /// (it collides with nothing before); later ones sweep it there over the frame. Without a call before a
+  /// frame it stays where it was. False with *error for an index out of range or a non-finite pose.
+  bool moveFrameCollider(std::size_t index, const Pose& frame, std::string* error);
+  /// The frame colliders' shape poses at the current time (unseen ones: not posed), world frame.
+  const std::vector<FrameColliderTrack>& frameColliders() const { return inputs_.frame_colliders; }
+  /// What the cloth did to each gripper over the last frame (in inputs().grippers order), including the
+  /// particles that slipped out of it (max_force); empty before the first frame with grippers.
+  const std::vector<GripperWrench>& gripperWrenches() const { return gripper_wrenches_; }
 
   /// Sphere centres at the current time, world frame (for tf).
   std::vector<Eigen::Vector3d> sphereCenters() const;
@@ -181,6 +222,12 @@ class Simulation {
   /// to *steps.
   ContactStats integrateFrame(int substeps, StepReport* steps);
 
+  /// Before a frame: a gripper or frame collider that was not moved for it holds still (its track starts
+  /// at this frame).
+  void holdUnmovedBodies();
+  /// After an accepted frame: each gripper's wrench from the constraint reactions; slipped particles let go.
+  void measureGripperWrenches();
+
   SceneOptions options_;
   ClothGrid grid_;
   Eigen::VectorXd mass_kg_;
@@ -201,6 +248,12 @@ class Simulation {
   Eigen::Matrix3Xd substep_start_positions_m_;  ///< scratch for the contact sweep
   Eigen::Matrix3Xf colors_;
   std::unique_ptr<Integrator> integrator_;
+  /// With grippers: the velocities at the start of the last substep and its length (the held particles'
+  /// acceleration over it enters their reaction), and the wrenches of the last frame.
+  Eigen::Matrix3Xd last_step_start_velocities_m_per_s_;
+  double last_step_s_ = 0.0;
+  Eigen::Matrix3Xd gripper_forces_N_;  ///< scratch
+  std::vector<GripperWrench> gripper_wrenches_;
 };
 
 /// The built-in texture: a two-colour checker of 8 x 8 squares over uv, RGB in [0, 1].

@@ -17,15 +17,16 @@ struct StateFileFormat {
   /// The first 8 bytes of every state file.
   static constexpr char kMagic[8] = {'C', 'L', 'O', 'T', 'H', 'S', 'A', 'V'};
   /// Written now; readers accept 1 up to this (a newer file is refused with its version). Version 2 added
-  /// the guard's memory (GARD); a version 1 file restores with a fresh one.
-  static constexpr std::uint32_t kVersion = 2;
+  /// the guard's memory (GARD); a version 1 file restores with a fresh one. Version 3 added the grippers
+  /// (GRIP); older files restore with none.
+  static constexpr std::uint32_t kVersion = 3;
   /// Written in the writer's byte order: read back as 0x04030201 on a machine of the other order.
   static constexpr std::uint32_t kByteOrderMark = 0x01020304;
   static constexpr std::size_t kHeaderBytes = 32;
   /// Allowance for the options text and the section headers, bytes.
   static constexpr std::size_t kFixedAllowanceBytes = std::size_t{1} << 20;
-  /// Per particle: 48 bytes of positions and velocities, at most 52 of pin data (index, hook, travel)
-  /// and room for its pin in the options text.
+  /// Per particle: 48 bytes of positions and velocities, at most 52 of pin data (index, hook, travel),
+  /// at most 28 of gripper data (index, offset) and room for its pin in the options text.
   static constexpr std::size_t kMaxBytesPerParticle = 256;
   /// Larger files are refused before anything is read: the largest grid's snapshot fits with room.
   static constexpr std::size_t kMaxFileBytes =

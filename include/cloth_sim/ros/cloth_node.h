@@ -14,6 +14,8 @@
 #include "cloth_sim/ros/frame_budget.h"
 #include "cloth_sim/ros/depth_cameras.h"
 #include "cloth_sim/ros/frame_inputs.h"
+#include "cloth_sim/ros/grippers.h"
+#include "cloth_sim/ros/robot_colliders.h"
 #include "cloth_sim/ros/mouse_drag.h"
 #include "cloth_sim/ros/grasp_queue.h"
 
@@ -64,6 +66,9 @@ struct Names {
   static constexpr const char* kTuningNamespace = "tuning";
   /// The paper's mouse in rviz: an interactive marker server under ~mouse (~mouse/feedback, ~mouse/update).
   static constexpr const char* kMouseNamespace = "mouse";
+  /// The name of the parameter holding a URDF whose links' collision shapes become frame colliders (empty:
+  /// none). Resolved in the node's namespace, as robot_state_publisher resolves its own.
+  static constexpr const char* kRobotDescriptionParam = "robot_description";
 };
 
 class ClothNode {
@@ -125,6 +130,8 @@ class ClothNode {
   /// Advances up to `frames` frames; stops at, and returns false for, a frame the core rolled back.
   bool advanceFrames(int frames);
   void publish(const ros::Time& stamp);
+  /// The ROS time at which frame `frame` ends (from the anchor), or now if the clock is not anchored yet.
+  ros::Time frameTime(std::uint64_t frame) const;
   void reanchor();
 
   void onWind(const geometry_msgs::Vector3Stamped::ConstPtr& message);
@@ -190,6 +197,10 @@ class ClothNode {
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::unique_ptr<DepthCameras> cameras_;  ///< ~points and the scene's cameras; after tf_buffer_, which it reads
   FrameInputs frame_inputs_{tf_buffer_};  ///< stamped inputs into frame_id_ (tf-or-drop)
+  std::unique_ptr<Grippers> grippers_;   ///< ~attach, ~detach, ~gripper_<id>/wrench; reads frame_inputs_
+  std::unique_ptr<FrameColliderInputs> frame_colliders_;  ///< links on tf frames; reads frame_inputs_
+  /// The URDF's collision shapes (~robot_description), added to every scene's frame_colliders.
+  std::vector<core::FrameCollider> urdf_colliders_;
   std::unique_ptr<MouseDrag> mouse_;      ///< rviz drags the cloth through ~grasp's handling
   std::unique_ptr<dynamic_reconfigure::Server<cloth_sim::ClothConfig>> reconfigure_;
   boost::recursive_mutex reconfigure_mutex_;

@@ -1,0 +1,79 @@
+#!/usr/bin/python3
+"""The robot demo end to end (test/ros/robot_demo.test runs launch/robot.launch).
+
+The towel (config/scenes/robot.yaml) lies on the table at 0.705 m. The driver attaches both grippers at 1 s
+of its clock, lifts the towel to 1 m by 2 s and carries it over the table's edge and the forearm, and lets
+go at 8 s. This test checks, through the real topics:
+- the grippers' wrenches arrive, in the grippers' frames, pulling down (the towel's weight, 0.1 kg, shared);
+- the towel is lifted clear of the table (its front corners above 0.95 m) and carried beyond the table's
+  far edge (y > 0.5);
+- after ~detach it falls (its highest particle below 1 m again and the wrenches stop).
+"""
+import threading
+import time
+import unittest
+
+import rospy
+import rostest
+from cloth_sim.msg import ClothState
+from geometry_msgs.msg import WrenchStamped
+
+DEADLINE_S = 40.0
+TOWEL_WEIGHT_N = 0.1 * 9.81
+
+
+class RobotDemo(unittest.TestCase):
+    def setUp(self):
+        self.lock = threading.Lock()
+        self.wrenches = {1: [], 2: []}
+        self.states = []
+        self.subscribers = [
+            rospy.Subscriber("/cloth_node/gripper_%d/wrench" % k, WrenchStamped,
+                             lambda m, k=k: self.store(self.wrenches[k], m), queue_size=100) for k in (1, 2)]
+        self.subscribers.append(rospy.Subscriber("/cloth_node/state", ClothState,
+                                                 lambda m: self.store(self.states, m), queue_size=100))
+
+    def store(self, into, message):
+        with self.lock:
+            into.append(message)
+
+    def wait_for(self, condition):
+        deadline = time.monotonic() + DEADLINE_S
+        while time.monotonic() < deadline and not rospy.is_shutdown():
+            with self.lock:
+                if condition():
+                    return True
+            time.sleep(0.1)
+        return False
+
+    def test_the_robot_picks_the_towel_up_carries_it_off_the_table_and_lets_go(self):
+        def lifted():
+            return any(s.positions[0].z > 0.95 and s.positions[19].z > 0.95 for s in self.states)
+        self.assertTrue(self.wait_for(lifted), "the towel's front corners never rose above 0.95 m")
+        with self.lock:
+            for k, frame in ((1, "left_gripper"), (2, "right_gripper")):
+                self.assertTrue(self.wrenches[k], "no ~gripper_%d/wrench" % k)
+                self.assertEqual(self.wrenches[k][-1].header.frame_id, frame)
+            # Lifted and nearly still: each gripper carries about half the towel, pulling down.
+            pull = self.wrenches[1][-1].wrench.force.z + self.wrenches[2][-1].wrench.force.z
+        self.assertLess(pull, -0.5 * TOWEL_WEIGHT_N)
+        self.assertGreater(pull, -3.0 * TOWEL_WEIGHT_N)
+
+        def carried():
+            return any(min(p.y for p in s.positions) > 0.5 for s in self.states)
+        self.assertTrue(self.wait_for(carried), "the towel was never carried beyond the table's far edge")
+
+        def let_go():
+            return any(min(p.y for p in s.positions) > 0.5 and max(p.z for p in s.positions) < 0.6
+                       for s in self.states)
+        self.assertTrue(self.wait_for(let_go), "the towel never fell after ~detach")
+        with self.lock:
+            count = len(self.wrenches[1])
+        time.sleep(0.5)
+        with self.lock:
+            self.assertEqual(len(self.wrenches[1]), count, "a detached gripper still publishes its wrench")
+
+
+if __name__ == "__main__":
+    rospy.init_node("test_robot_demo")
+    rostest.rosrun("cloth_sim", "robot_demo", RobotDemo)
