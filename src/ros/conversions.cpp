@@ -200,11 +200,7 @@ cloth_sim::ClothState toStateMessage(const core::Simulation& simulation, const s
   message.velocities.reserve(state.particleCount());
   for (int i = 0; i < state.particleCount(); ++i) {
     message.positions.push_back(toPoint(state.positions_m.col(i)));
-    geometry_msgs::Vector3 velocity;
-    velocity.x = state.velocities_m_per_s(0, i);
-    velocity.y = state.velocities_m_per_s(1, i);
-    velocity.z = state.velocities_m_per_s(2, i);
-    message.velocities.push_back(velocity);
+    message.velocities.push_back(toVector3(state.velocities_m_per_s.col(i)));
   }
   message.sim_time = state.time_s;
   message.frame = state.frame;
@@ -214,6 +210,14 @@ cloth_sim::ClothState toStateMessage(const core::Simulation& simulation, const s
   message.kinetic_energy = energy.kinetic_J;
   message.potential_energy = energy.potential_J;
   return message;
+}
+
+geometry_msgs::Vector3 toVector3(const Eigen::Vector3d& v) {
+  geometry_msgs::Vector3 out;
+  out.x = v.x();
+  out.y = v.y();
+  out.z = v.z();
+  return out;
 }
 
 geometry_msgs::TransformStamped identityTransform(const std::string& parent_frame, const std::string& child_frame,

@@ -1,5 +1,7 @@
 #include "cloth_sim/ros/grippers.h"
 
+#include "cloth_sim/ros/conversions.h"
+
 #include <geometry_msgs/WrenchStamped.h>
 
 #include <cmath>
@@ -15,14 +17,6 @@ namespace {
 constexpr double kWarnThrottle_s = 5.0;
 /// Wrench messages a subscriber may fall behind by.
 constexpr std::uint32_t kWrenchQueue = 10;
-
-geometry_msgs::Vector3 toVector3(const Eigen::Vector3d& v) {
-  geometry_msgs::Vector3 out;
-  out.x = v.x();
-  out.y = v.y();
-  out.z = v.z();
-  return out;
-}
 
 std::string particleList(const std::vector<int>& particles) {
   std::ostringstream out;

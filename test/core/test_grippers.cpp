@@ -54,6 +54,16 @@ void settle(Simulation& sim, int least, int most) {
   ADD_FAILURE() << "the cloth is still moving after " << most << " frames";
 }
 
+/// A request to hold the particles within radius_m of particle `at` (the frame's origin there, unturned).
+GripperRequest holdAround(const Simulation& sim, std::uint32_t id, int at, double radius_m) {
+  GripperRequest request;
+  request.id = id;
+  request.frame = "hand";
+  request.pose.position_m = sim.state().positions_m.col(at);
+  request.radius_m = radius_m;
+  return request;
+}
+
 class GripperEveryIntegrator : public ::testing::TestWithParam<IntegratorKind> {};
 
 TEST_P(GripperEveryIntegrator, AFrameMovingAndTurningOnAKnownPathCarriesItsParticlesRigidly) {
@@ -181,11 +191,7 @@ TEST(GripperWrench, TwoGrippersHoldingItSymmetricallyEachCarryHalfTheWeight) {
 
 TEST(Grippers, DetachLetsTheClothFall) {
   Simulation sim(unpinnedHanging(8, 8));
-  GripperRequest request;
-  request.id = 3;
-  request.frame = "hand";
-  request.pose.position_m = sim.state().positions_m.col(3);
-  request.radius_m = 0.2;
+  const GripperRequest request = holdAround(sim, 3, 3, 0.2);
   std::vector<int> held;
   std::string error;
   ASSERT_TRUE(sim.attachGripper(request, &held, &error)) << error;
@@ -231,11 +237,7 @@ TEST(Grippers, AParticlePulledHarderThanMaxForceSlipsOutAndIsReported) {
 
 TEST(Grippers, AFrameThatReappearsFarAwayIsCaughtUpWithoutTearingTheCloth) {
   Simulation sim(unpinnedHanging(10, 10));
-  GripperRequest request;
-  request.id = 9;
-  request.frame = "hand";
-  request.pose.position_m = sim.state().positions_m.col(4);
-  request.radius_m = 0.12;
+  const GripperRequest request = holdAround(sim, 9, 4, 0.12);
   std::vector<int> held;
   std::string error;
   ASSERT_TRUE(sim.attachGripper(request, &held, &error)) << error;

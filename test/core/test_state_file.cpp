@@ -146,6 +146,17 @@ bool sameBits(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return ::testing::AssertionFailure() << "fields differ:" << list;
 }
 
+bool samePose(const Pose& p, const Pose& q) {
+  return sameBits(p.position_m, q.position_m) && sameBits(p.orientation.w(), q.orientation.w()) &&
+         sameBits(p.orientation.x(), q.orientation.x()) && sameBits(p.orientation.y(), q.orientation.y()) &&
+         sameBits(p.orientation.z(), q.orientation.z());
+}
+
+bool sameTrack(const PoseTrack& a, const PoseTrack& b) {
+  return samePose(a.start, b.start) && samePose(a.end, b.end) && sameBits(a.start_time_s, b.start_time_s) &&
+         sameBits(a.duration_s, b.duration_s);
+}
+
 ::testing::AssertionResult sameSnapshot(const SimulationSnapshot& a, const SimulationSnapshot& b) {
   if (auto options = sameOptions(a.options, b.options); !options) return options;
   if (a.guard.auto_scale != b.guard.auto_scale || a.guard.consecutive_rollbacks != b.guard.consecutive_rollbacks) {
@@ -178,13 +189,7 @@ bool sameBits(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   for (std::size_t c = 0; c < ia.frame_colliders.size(); ++c) {
     const FrameColliderTrack& x = ia.frame_colliders[c];
     const FrameColliderTrack& y = ib.frame_colliders[c];
-    const auto samePose = [](const Pose& p, const Pose& q) {
-      return sameBits(p.position_m, q.position_m) && sameBits(p.orientation.w(), q.orientation.w()) &&
-             sameBits(p.orientation.x(), q.orientation.x()) && sameBits(p.orientation.y(), q.orientation.y()) &&
-             sameBits(p.orientation.z(), q.orientation.z());
-    };
-    if (x.seen != y.seen || !samePose(x.track.start, y.track.start) || !samePose(x.track.end, y.track.end) ||
-        !sameBits(x.track.start_time_s, y.track.start_time_s) || !sameBits(x.track.duration_s, y.track.duration_s)) {
+    if (x.seen != y.seen || !sameTrack(x.track, y.track)) {
       return ::testing::AssertionFailure() << "frame collider " << c << " differs";
     }
   }
@@ -192,15 +197,8 @@ bool sameBits(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   for (std::size_t g = 0; g < ia.grippers.size(); ++g) {
     const Gripper& x = ia.grippers[g];
     const Gripper& y = ib.grippers[g];
-    const auto samePose = [](const Pose& p, const Pose& q) {
-      return sameBits(p.position_m, q.position_m) && sameBits(p.orientation.w(), q.orientation.w()) &&
-             sameBits(p.orientation.x(), q.orientation.x()) && sameBits(p.orientation.y(), q.orientation.y()) &&
-             sameBits(p.orientation.z(), q.orientation.z());
-    };
     if (x.id != y.id || x.frame != y.frame || x.particles != y.particles || !sameMatrixBits(x.offsets_m, y.offsets_m) ||
-        !sameBits(x.max_force_N, y.max_force_N) || !samePose(x.track.start, y.track.start) ||
-        !samePose(x.track.end, y.track.end) || !sameBits(x.track.start_time_s, y.track.start_time_s) ||
-        !sameBits(x.track.duration_s, y.track.duration_s)) {
+        !sameBits(x.max_force_N, y.max_force_N) || !sameTrack(x.track, y.track)) {
       return ::testing::AssertionFailure() << "gripper " << g << " differs";
     }
   }

@@ -4,7 +4,8 @@
 The towel (config/scenes/robot.yaml) lies on the table at 0.705 m. The driver attaches both grippers at 1 s
 of its clock, lifts the towel to 1 m by 2 s and carries it over the table's edge and the forearm, and lets
 go at 8 s. This test checks, through the real topics:
-- the grippers' wrenches arrive, in the grippers' frames, pulling down (the towel's weight, 0.1 kg, shared);
+- the grippers' wrenches arrive in the grippers' frames and, once the towel hangs beyond the table's edge,
+  carry its weight (0.1 kg) between them, pulling down;
 - the towel is lifted clear of the table (its front corners above 0.95 m) and carried beyond the table's
   far edge (y > 0.5);
 - after ~detach it falls (its highest particle below 1 m again and the wrenches stop).
@@ -54,14 +55,21 @@ class RobotDemo(unittest.TestCase):
             for k, frame in ((1, "left_gripper"), (2, "right_gripper")):
                 self.assertTrue(self.wrenches[k], "no ~gripper_%d/wrench" % k)
                 self.assertEqual(self.wrenches[k][-1].header.frame_id, frame)
-            # Lifted and nearly still: each gripper carries about half the towel, pulling down.
-            pull = self.wrenches[1][-1].wrench.force.z + self.wrenches[2][-1].wrench.force.z
-        self.assertLess(pull, -0.5 * TOWEL_WEIGHT_N)
-        self.assertGreater(pull, -3.0 * TOWEL_WEIGHT_N)
 
         def carried():
             return any(min(p.y for p in s.positions) > 0.5 for s in self.states)
         self.assertTrue(self.wait_for(carried), "the towel was never carried beyond the table's far edge")
+        # Beyond the table's edge the towel hangs from the grippers alone: over the next half second they
+        # carry its weight between them, pulling down (the frames are level: force.z is world z). Swinging
+        # adds and takes a little, so the mean is compared with a margin.
+        with self.lock:
+            first = [len(self.wrenches[1]), len(self.wrenches[2])]
+        time.sleep(0.5)
+        with self.lock:
+            sums = [sum(w.wrench.force.z for w in self.wrenches[k][first[k - 1]:]) /
+                    max(1, len(self.wrenches[k]) - first[k - 1]) for k in (1, 2)]
+        self.assertLess(sum(sums), -0.6 * TOWEL_WEIGHT_N, "the grippers' pulls %s" % sums)
+        self.assertGreater(sum(sums), -1.6 * TOWEL_WEIGHT_N, "the grippers' pulls %s" % sums)
 
         def let_go():
             return any(min(p.y for p in s.positions) > 0.5 and max(p.z for p in s.positions) < 0.6

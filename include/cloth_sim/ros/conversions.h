@@ -40,9 +40,13 @@ cloth_sim::ClothState toStateMessage(const core::Simulation& simulation, const s
 
 /// The colliders as rviz shapes at the current time, drawn 1 cm inside their surfaces (no z-fighting with
 /// the cloth resting on them): spheres, boxes, and planes as 4 m square slabs
-/// centred on the point of the plane nearest the origin. Namespaces "spheres", "boxes", "planes".
+/// centred on the point of the plane nearest the origin, and the frame colliders where their shapes stand (a
+/// capsule as a cylinder and two end spheres). Namespaces "spheres", "boxes", "planes", "frame_colliders".
 visualization_msgs::MarkerArray toColliderMarkers(const core::Simulation& simulation, const std::string& frame_id,
                                                   const ros::Time& stamp);
+
+/// A vector (a velocity, a force, a torque) as a message.
+geometry_msgs::Vector3 toVector3(const Eigen::Vector3d& v);
 
 /// child_frame at parent_frame's origin, unrotated: the static tf that places the cloth's frame in a
 /// parent frame (the node's and the viewer's ~parent_frame_id).
