@@ -7,6 +7,7 @@
 #include "cloth_sim/ros/shutdown.h"
 
 #include <boost/make_shared.hpp>
+#include <ros/names.h>
 #include <ros/package.h>
 
 #include <algorithm>
@@ -66,24 +67,32 @@ bool ClothNode::start(std::string* error) {
     return false;
   }
   if (!robot_description.empty()) {
+    // Resolved as a graph name in the node's namespace ("~name": the node's own), as robot_state_publisher
+    // resolves its robot_description; an invalid name is refused, not thrown.
+    std::string resolved;
+    try {
+      resolved = ros::names::resolve(robot_description);
+    } catch (const ros::InvalidNameException& e) {
+      *error = "parameter ~robot_description = '" + robot_description + "': not a valid parameter name (" + e.what() + ")";
+      return false;
+    }
     std::string urdf_xml;
-    if (!nh_.getParam(robot_description, urdf_xml)) {
-      *error = "parameter ~robot_description = '" + robot_description + "': no string parameter " +
-               nh_.resolveName(robot_description) + " holds a URDF";
+    if (!ros::param::get(resolved, urdf_xml)) {
+      *error = "parameter ~robot_description = '" + robot_description + "': no string parameter " + resolved +
+               " holds a URDF";
       return false;
     }
     std::vector<std::string> mesh_links;
     std::string why;
     if (!collidersFromUrdf(urdf_xml, &urdf_colliders_, &mesh_links, &why)) {
-      *error = "parameter " + nh_.resolveName(robot_description) + ": " + why;
+      *error = "parameter " + resolved + ": " + why;
       return false;
     }
     if (!mesh_links.empty()) {
       ROS_WARN("cloth_node: %s: skipping the mesh collisions of links %s (only spheres, cylinders and boxes collide)",
-               nh_.resolveName(robot_description).c_str(), join(mesh_links, ", ").c_str());
+               resolved.c_str(), join(mesh_links, ", ").c_str());
     }
-    ROS_INFO("cloth_node: %zu colliders from the URDF in %s", urdf_colliders_.size(),
-             nh_.resolveName(robot_description).c_str());
+    ROS_INFO("cloth_node: %zu colliders from the URDF in %s", urdf_colliders_.size(), resolved.c_str());
   }
   for (const auto& [name, value] : {std::pair<const char*, const std::string*>{Names::kFrameIdParam, &frame_id_},
                                     {Names::kParentFrameParam, &parent_frame}, {Names::kSceneParam, &scene}}) {

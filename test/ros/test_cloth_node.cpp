@@ -1199,6 +1199,18 @@ TEST(BadParams, BadCameraParametersAreNamed) {
                                "cameras[0].height = 0", "cameras[1].width = 5000", "cameras[1].name = 'front'"});
 }
 
+TEST(BadParams, ARobotDescriptionThatIsMissingOrNotAUrdfIsNamed) {
+  expectRefused("bad_urdf_name", "_robot_description:=no_such_description",
+                {"~robot_description = 'no_such_description'", "holds a URDF"});
+  // Resolved in the node's namespace: "~junk" is the node's own private parameter.
+  expectRefusedWithParameters("bad_urdf_text",
+                              {{"robot_description", XmlRpc::XmlRpcValue(std::string("~junk"))},
+                               {"junk", XmlRpc::XmlRpcValue(std::string("<robot name='r'><link></robot>"))}},
+                              {"/bad_urdf_text/junk", "not a URDF"});
+  // Before, a name roscpp's NodeHandle refuses ("~..." there, or a space) ended the node with an exception.
+  expectRefused("bad_urdf_param_name", "'_robot_description:=a b'", {"~robot_description = 'a b'", "not a valid"});
+}
+
 TEST(BadParams, GoodParametersRun) {
   // Control for the three above: with valid parameters the same command is still running at the timeout.
   const ProcessResult result =
