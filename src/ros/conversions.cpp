@@ -18,13 +18,17 @@ std_msgs::Header header(const std::string& frame_id, const ros::Time& stamp) {
   return h;
 }
 
-geometry_msgs::Point toPoint(const Eigen::Vector3d& p) {
-  geometry_msgs::Point point;
-  point.x = p.x();
-  point.y = p.y();
-  point.z = p.z();
-  return point;
+/// A message with fields x, y, z (a Point, a Vector3) from a vector.
+template <typename Xyz>
+Xyz toXyz(const Eigen::Vector3d& v) {
+  Xyz out;
+  out.x = v.x();
+  out.y = v.y();
+  out.z = v.z();
+  return out;
 }
+
+geometry_msgs::Point toPoint(const Eigen::Vector3d& p) { return toXyz<geometry_msgs::Point>(p); }
 
 std_msgs::ColorRGBA toColor(const Eigen::Vector3f& rgb) {
   std_msgs::ColorRGBA color;
@@ -212,13 +216,7 @@ cloth_sim::ClothState toStateMessage(const core::Simulation& simulation, const s
   return message;
 }
 
-geometry_msgs::Vector3 toVector3(const Eigen::Vector3d& v) {
-  geometry_msgs::Vector3 out;
-  out.x = v.x();
-  out.y = v.y();
-  out.z = v.z();
-  return out;
-}
+geometry_msgs::Vector3 toVector3(const Eigen::Vector3d& v) { return toXyz<geometry_msgs::Vector3>(v); }
 
 geometry_msgs::TransformStamped identityTransform(const std::string& parent_frame, const std::string& child_frame,
                                                   const ros::Time& stamp) {
