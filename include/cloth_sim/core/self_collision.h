@@ -1,21 +1,24 @@
 // Self-collision (issue 15): the cloth never passes through itself.
 //
 // Method (doc/PHYSICS.md, "Self-collision"): particles are kept at least a thickness h apart, pair by
-// pair, after each substep, as in Mueller's hashed particle self-collision; particles closer than h on
-// the rest grid (neighbours) are exempt. Three passes per substep, all on positions, in one fixed order:
-//   1. response: Gauss-Seidel sweeps push every pair closer than h back to h along the line between them
-//      (along the pair's start direction if they passed each other), mass-weighted, then lift a pushed
-//      particle back out of the table or floor it was pushed into; then Coulomb friction between the
-//      layers on the pair's relative sliding, bounded by friction x the normal push;
+// pair, after each substep (after the colliders), as in Mueller's hashed particle self-collision;
+// particles closer than kExemptRestThicknesses x h on the rest grid are exempt (the springs keep them
+// apart). A swept spatial hash (spatial_hash.h) finds the pairs. Then, all on the substep's result, in
+// one fixed order:
+//   1. response: kResponseSweeps Gauss-Seidel sweeps push every pair closer than h back to h, mass-
+//      weighted, along the line between them (along their start direction if they passed each other; a
+//      particle on a table or the floor is held by it, and the one above it moves along the surface's
+//      normal), each sweep lifting what it pushed into a surface back onto it; then friction between
+//      the layers on the pair's relative sliding (Coulomb, bounded by friction x the normal push), and an
+//      inelastic velocity change: the pair's approach is removed, with friction on its sliding;
 //   2. fail-safe: every pair whose straight path over the substep came closer than kFailSafeFraction x h
-//      (and closer than it started) has its free particles put back where the substep started them, until
-//      no such pair is left (it ends: with every free particle back, nothing moved);
-//   3. velocities follow the corrected positions (v += correction / step), a frozen particle stops.
-// The guarantee: while no structural or shear edge is longer than kFailSafeFraction x h / kCoverFactor,
-// no two triangles whose particles are all further than h apart on the rest grid can pass through each
-// other within a substep (any point of a triangle lies within kCoverFactor-ish of its vertices; proof in
-// doc/PHYSICS.md), except where a pin or gripper (a particle with no inverse mass) drags the cloth through
-// itself: that is counted (SelfCollisionStats::forced) and reported, not hidden.
+//      (and closer than it started) has its free particles put back where the substep started them, at
+//      rest, until no such pair is left (it ends: with every free particle back, nothing moved).
+// The guarantee: while no triangle edge is longer than kFailSafeFraction x h / kCoverFactor, no two
+// triangles whose particles are all further than the exempt distance apart on the rest grid pass through
+// each other within a substep (doc/PHYSICS.md has the argument), except where a pin or gripper (a particle
+// with no inverse mass) drags the cloth through itself: that is counted (SelfCollisionStats::forced) and
+// reported in the frame's warning, not hidden.
 #pragma once
 
 #include "cloth_sim/core/contact.h"
