@@ -5,8 +5,8 @@ The same script as the core's ScriptedFold (include/cloth_sim/core/scripted_fold
 `cloth_bench --fold` use: the hands take the two corners of the towel's last row at 0.2 s of simulated
 time, carry them over the middle on a half circle (smoothstep, 1.6 s) onto the first row's corners,
 ending 1.5 self-collision thicknesses above them, hold 0.4 s and let go. It follows the node's simulated
-time (each ~state message moves the hands to where they are at the end of the next frame), so it folds
-the same at any node speed. The towel's grid and thickness come from the first ~state: the towel lies
+time from the first ~state it sees (each ~state message moves the hands to where they are at the end of
+the next frame), so it folds the same at any node speed and however late it starts. The towel's grid and thickness come from the first ~state: the towel lies
 flat on its rest grid then, and the thickness is the default, 1.5 grid-cell diagonals (the driver reads
 ~thickness, default 0: that default).
 
@@ -56,6 +56,7 @@ class FoldDriver:
         self.period = float(rospy.get_param("~period", 8.0))
         self.reset_name = node + "/reset"
         self.rest = None
+        self.start_s = None  # the node's simulated time when the driver first heard from it
         self.released = False
         self.grasp = rospy.Publisher(node + "/grasp", Grasp, queue_size=10)
         rospy.Subscriber(node + "/state", ClothState, self.on_state, queue_size=1)
@@ -89,11 +90,14 @@ class FoldDriver:
     def on_state(self, state):
         if self.rest is None:
             self.learn_grid(state)
-        t = state.sim_time
+        if self.start_s is None or state.sim_time < self.start_s:  # first, or after a ~reset
+            self.start_s = state.sim_time
+            self.released = False
+        t = state.sim_time - self.start_s
         if self.loop and t > self.period:
             rospy.wait_for_service(self.reset_name, timeout=10.0)
             rospy.ServiceProxy(self.reset_name, Trigger)()
-            self.released = False
+            self.start_s = None
             return
         end = t + FRAME_S
         if end <= START_S or self.released:

@@ -79,9 +79,20 @@ SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfColli
   // neither of which can move.
   const double exempt_m = SelfCollision::kExemptRestThicknesses * thickness_m;
   const double exempt_squared = exempt_m * exempt_m;
+  // On the rest grid (flat, orthonormal axes) two particles are (dc du, dr dv) apart: no memory read.
+  const double du_squared = (rest.col(std::min(1, count - 1)) - rest.col(0)).squaredNorm();
+  const double dv_squared = (rest.col(std::min(grid.cols, count - 1)) - rest.col(0)).squaredNorm();
+  row_of_.resize(static_cast<std::size_t>(count));
+  col_of_.resize(static_cast<std::size_t>(count));
+  for (int i = 0; i < count; ++i) {
+    row_of_[static_cast<std::size_t>(i)] = i / grid.cols;
+    col_of_[static_cast<std::size_t>(i)] = i % grid.cols;
+  }
   const auto keep = [&](int i, int j) {
-    return (inverse_mass_per_kg[i] > 0.0 || inverse_mass_per_kg[j] > 0.0) &&
-           (rest.col(i) - rest.col(j)).squaredNorm() > exempt_squared;
+    const double dr = row_of_[static_cast<std::size_t>(j)] - row_of_[static_cast<std::size_t>(i)];
+    const double dc = col_of_[static_cast<std::size_t>(j)] - col_of_[static_cast<std::size_t>(i)];
+    return dr * dr * dv_squared + dc * dc * du_squared > exempt_squared &&
+           (inverse_mass_per_kg[i] > 0.0 || inverse_mass_per_kg[j] > 0.0);
   };
 
   // 1. Response. The candidates reach 1.5 h: a pair the sweeps push towards each other is still seen.

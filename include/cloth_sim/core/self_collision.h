@@ -96,6 +96,8 @@ class SelfCollision {
   Eigen::Matrix3Xd surface_normals_;  ///< for those, the surface's outward normal
   std::vector<double> pushed_m_;     ///< per pair: the normal push the response gave it
   std::vector<Eigen::Vector3d> normals_;
+  std::vector<int> row_of_;  ///< per particle: its row and column on the grid
+  std::vector<int> col_of_;
   std::vector<char> moved_;
   std::vector<char> frozen_;
 };
