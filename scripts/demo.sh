@@ -13,6 +13,7 @@ ws=${1:?usage: demo.sh WORKSPACE [SCENE] [SECONDS] [OUTDIR]}
 scene=${2:-drape}
 seconds=${3:-10}
 robot_seconds=14  # the least the robot demo runs (wall time, start-up included)
+fold_seconds=12   # the least the fold demo runs: the hands let go at 2.2 s, then it settles
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 outdir=${4:-$here/../.build/demo}
 mkdir -p "$outdir"
@@ -45,6 +46,10 @@ if [ "$scene" = robot ]; then
   # driver lets go at 8 s of simulated time: give the towel time to settle after that.
   launch_args=(robot.launch)
   if [ "$seconds" -lt "$robot_seconds" ]; then seconds=$robot_seconds; fi
+elif [ "$scene" = fold ]; then
+  # The fold demo: its driver folds the towel through ~grasp (launch/fold.launch).
+  launch_args=(fold.launch)
+  if [ "$seconds" -lt "$fold_seconds" ]; then seconds=$fold_seconds; fi
 else
   launch_args=(cloth.launch scene:="$scene")
 fi
@@ -77,8 +82,8 @@ fi
 
 echo "==> demo: rendering the last /cloth_node/mesh of $bag"
 render_args=()
-# The robot demo's towel ends lying still on the table and the forearm: not pins.
-if [ "$scene" = robot ]; then render_args=(--no-pins); fi
+# The robot demo's towel ends lying still on the table and the forearm, the fold's on the floor: not pins.
+if [ "$scene" = robot ] || [ "$scene" = fold ] || [ "$scene" = pile ]; then render_args=(--no-pins); fi
 /usr/bin/python3 "$here/render_bag.py" "$bag" "$png" --title "cloth_sim: $name" "${render_args[@]}"
 echo "bag: $bag"
 echo "PNG: $png"

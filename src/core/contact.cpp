@@ -274,6 +274,63 @@ double signedDistance(const BoxCollider& box, const Eigen::Vector3d& point_m) {
   return gap.cwiseMax(0.0).norm();
 }
 
+double nearestSurfaceDistance_m(const ColliderSet& colliders, double time_s, const Eigen::Vector3d& point_m,
+                                Eigen::Vector3d* normal) {
+  double nearest_m = std::numeric_limits<double>::infinity();
+  Eigen::Vector3d nearest_normal = Eigen::Vector3d::UnitZ();
+  for (const PlaneCollider& plane : colliders.planes) {
+    const double distance_m = signedDistance(plane, point_m);
+    if (distance_m < nearest_m) {
+      nearest_m = distance_m;
+      nearest_normal = plane.normal;
+    }
+  }
+  for (const SphereCollider& sphere : colliders.spheres) {
+    const Eigen::Vector3d center_m = sphere.centerAt(time_s);
+    const double distance_m = signedDistance(sphere, center_m, point_m);
+    if (distance_m < nearest_m) {
+      nearest_m = distance_m;
+      const Eigen::Vector3d out = point_m - center_m;
+      nearest_normal = out.norm() > kTinyLength_m ? Eigen::Vector3d(out.normalized()) : Eigen::Vector3d::UnitZ();
+    }
+  }
+  for (const BoxCollider& box : colliders.boxes) {
+    const double distance_m = signedDistance(box, point_m);
+    if (distance_m < nearest_m) {
+      nearest_m = distance_m;
+      nearest_normal = boxNormal(box, point_m);
+    }
+  }
+  if (normal != nullptr) *normal = nearest_normal;
+  return nearest_m;
+}
+
+bool liftOntoSurfaces(const ColliderSet& colliders, double time_s, Eigen::Ref<Eigen::Vector3d> point_m) {
+  bool moved = false;
+  for (const PlaneCollider& plane : colliders.planes) {
+    const double distance_m = signedDistance(plane, point_m);
+    if (distance_m >= 0.0) continue;
+    point_m -= distance_m * plane.normal;
+    moved = true;
+  }
+  for (const SphereCollider& sphere : colliders.spheres) {
+    const Eigen::Vector3d center_m = sphere.centerAt(time_s);
+    const double distance_m = signedDistance(sphere, center_m, point_m);
+    if (distance_m >= 0.0) continue;
+    const Eigen::Vector3d out = point_m - center_m;
+    const Eigen::Vector3d normal = out.norm() > kTinyLength_m ? Eigen::Vector3d(out.normalized()) : Eigen::Vector3d::UnitZ();
+    point_m = center_m + sphere.radius_m * normal;
+    moved = true;
+  }
+  for (const BoxCollider& box : colliders.boxes) {
+    const double distance_m = signedDistance(box, point_m);
+    if (distance_m >= 0.0) continue;
+    point_m -= distance_m * boxNormal(box, point_m);
+    moved = true;
+  }
+  return moved;
+}
+
 Eigen::Vector3d collisionResponse(const Eigen::Vector3d& relative_velocity_m_per_s, const Eigen::Vector3d& normal,
                                   const ContactOptions& options) {
   const double normal_speed = relative_velocity_m_per_s.dot(normal);  // < 0: approaching

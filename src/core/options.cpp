@@ -265,6 +265,8 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   problems.inRange("contact_depth", o.contact.depth_m, 0.0, L::kMaxContactDepth_m);
   problems.inRange("restitution", o.contact.restitution, 0.0, 1.0);
   problems.inRange("friction", o.contact.friction, 0.0, L::kMaxFriction);
+  problems.inRange("self_collision_thickness", o.self_collision.thickness_m, 0.0, L::kMaxSelfCollisionThickness_m);
+  problems.inRange("self_collision_friction", o.self_collision.friction, 0.0, L::kMaxFriction);
   problems.inRange("grasp_stiffness", o.grasp_stiffness_N_per_m, 0.0, L::kMaxStiffnessN_per_m);
   problems.inRange("grasp_damping", o.grasp_damping_N_s_per_m, 0.0, L::kMaxDampingN_s_per_m);
   if (!o.autoSubsteps()) problems.inRange("substeps", o.substeps, 1, L::kMaxSubsteps);

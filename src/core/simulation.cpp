@@ -77,14 +77,15 @@ bool Simulation::restoreState(const ClothState& state, std::string* error) {
   return restore(current, error);
 }
 
-ContactStats Simulation::integrateFrame(int substeps, StepReport* steps) {
+ContactStats Simulation::integrateFrame(int substeps, StepReport* steps, SelfCollisionStats* self_collision) {
   ContactStats contacts;
   const double step_s = options_.frameDuration_s() / substeps;
   const double frame_start_s = state_.time_s;
   const Eigen::VectorXd& inverse_mass = force_model_.inverseMass_per_kg();
   for (int k = 0; k < substeps; ++k) {
     const double t0_s = state_.time_s;
-    if (!options_.colliders.empty()) substep_start_positions_m_ = state_.positions_m;
+    const bool self_colliding = options_.self_collision.enabled;
+    if (!options_.colliders.empty() || self_colliding) substep_start_positions_m_ = state_.positions_m;
     if (!inputs_.grippers.empty()) {
       last_step_start_velocities_m_per_s_ = state_.velocities_m_per_s;
       last_step_s_ = step_s;
@@ -101,6 +102,13 @@ ContactStats Simulation::integrateFrame(int substeps, StepReport* steps) {
                                           state_.time_s, inverse_mass, substep_start_positions_m_, state_.positions_m,
                                           state_.velocities_m_per_s);
       }
+    }
+    // After the colliders, so that it sees where the table put a particle (and lifts what it pushes back
+    // onto it).
+    if (self_colliding) {
+      *self_collision += self_collision_.resolve(grid_, options_.self_collision, options_.colliders, options_.contact,
+                                                 state_.time_s, inverse_mass, substep_start_positions_m_, state_.positions_m,
+                                                 state_.velocities_m_per_s);
     }
   }
   return contacts;
@@ -151,7 +159,8 @@ bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps,
     if (attempt > 0 && substeps == report->substeps_used) break;  // at the cap: the same again would fail again
     report->substeps_used = substeps;
     report->steps = StepReport();
-    report->contacts = integrateFrame(report->substeps_used, &report->steps);
+    report->self_collision = SelfCollisionStats();
+    report->contacts = integrateFrame(report->substeps_used, &report->steps, &report->self_collision);
     report->max_strain = maxStructuralStrain();
     const EnergyReport energies_after = energies();
     problem = guard_.check(state_, totalEnergy_J(energies_after), report->max_strain, envelope);
@@ -252,6 +261,10 @@ FrameReport Simulation::advanceFrame() {
            << report.rejection << " before): raise substeps or use substeps: auto";
   } else if (!warning.empty()) {
     reason << warning;
+  } else if (report.self_collision.forced > 0) {
+    // Not a crossing the simulation made, but not one to pass over in silence either.
+    reason << "a pinned or gripped particle pulled the cloth through itself (" << report.self_collision.forced
+           << " particle pairs the self-collision could not keep apart)";
   } else if (report.max_strain > kStrainWarning) {
     reason << "over-stretched: structural strain " << report.max_strain << " > " << kStrainWarning;
   }

@@ -229,6 +229,11 @@ std::map<std::string, Setter> makeSetters() {
   s["contact_depth"] = [](const YAML::Node& n, SceneOptions& o) { o.contact.depth_m = readDouble(n); };
   s["restitution"] = [](const YAML::Node& n, SceneOptions& o) { o.contact.restitution = readDouble(n); };
   s["friction"] = [](const YAML::Node& n, SceneOptions& o) { o.contact.friction = readDouble(n); };
+  s["self_collision"] = [](const YAML::Node& n, SceneOptions& o) { o.self_collision.enabled = readBool(n); };
+  s["self_collision_thickness"] = [](const YAML::Node& n, SceneOptions& o) {
+    o.self_collision.thickness_m = readDouble(n);
+  };
+  s["self_collision_friction"] = [](const YAML::Node& n, SceneOptions& o) { o.self_collision.friction = readDouble(n); };
   s["grasp_stiffness"] = [](const YAML::Node& n, SceneOptions& o) { o.grasp_stiffness_N_per_m = readDouble(n); };
   s["grasp_damping"] = [](const YAML::Node& n, SceneOptions& o) { o.grasp_damping_N_s_per_m = readDouble(n); };
   s["integrator"] = [](const YAML::Node& n, SceneOptions& o) {
@@ -505,6 +510,9 @@ std::string sceneYaml(const SceneOptions& o) {
   number("contact_depth", o.contact.depth_m);
   number("restitution", o.contact.restitution);
   number("friction", o.contact.friction);
+  boolean("self_collision", o.self_collision.enabled);
+  number("self_collision_thickness", o.self_collision.thickness_m);
+  number("self_collision_friction", o.self_collision.friction);
   number("grasp_stiffness", o.grasp_stiffness_N_per_m);
   number("grasp_damping", o.grasp_damping_N_s_per_m);
   key("integrator") << integratorName(o.integrator);

@@ -679,6 +679,9 @@ void ClothNode::onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t) {
     error = "integrator '" + config.integrator + "' is unknown";
   }
   options.substeps = config.substeps;
+  options.self_collision.enabled = config.self_collision;
+  options.self_collision.thickness_m = config.self_collision_thickness;
+  options.self_collision.friction = config.self_collision_friction;
   options.solver.tolerance = config.solver_tolerance;
   options.solver.max_iterations = config.solver_max_iterations;
   if (error.empty() && !core::parsePreconditionerName(config.solver_preconditioner, &options.solver.preconditioner)) {
@@ -702,7 +705,8 @@ std::string ClothNode::invalidReconfigureValue(const cloth_sim::ClothConfig& con
       {"bend_stiffness", config.bend_stiffness},             {"bend_damping", config.bend_damping},
       {"air_damping", config.air_damping},                   {"wind_x", config.wind_x},
       {"wind_y", config.wind_y},                             {"wind_z", config.wind_z},
-      {"solver_tolerance", config.solver_tolerance}};
+      {"solver_tolerance", config.solver_tolerance},         {"self_collision_thickness", config.self_collision_thickness},
+      {"self_collision_friction", config.self_collision_friction}};
   for (const auto& [field, value] : numbers) {
     if (!std::isfinite(value)) return std::string(field) + " = " + std::to_string(value) + ": must be finite";
   }
@@ -735,6 +739,10 @@ void ClothNode::publishReconfigureRanges() {
   high.substeps = L::kMaxSubsteps;
   low.solver_tolerance = L::kMinSolverTolerance;
   high.solver_tolerance = 1.0;
+  low.self_collision_thickness = 0.0;
+  high.self_collision_thickness = L::kMaxSelfCollisionThickness_m;
+  low.self_collision_friction = 0.0;
+  high.self_collision_friction = L::kMaxFriction;
   low.solver_max_iterations = 1;
   high.solver_max_iterations = L::kMaxSolverIterations;
   reconfigure_->setConfigMin(low);
@@ -760,6 +768,9 @@ void ClothNode::fillConfig(cloth_sim::ClothConfig* config) const {
   c.solver_tolerance = o.solver.tolerance;
   c.solver_max_iterations = o.solver.max_iterations;
   c.solver_preconditioner = core::preconditionerName(o.solver.preconditioner);
+  c.self_collision = o.self_collision.enabled;
+  c.self_collision_thickness = o.self_collision.thickness_m;
+  c.self_collision_friction = o.self_collision.friction;
 }
 
 void ClothNode::pushConfig() {
@@ -821,6 +832,14 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("solver iterations per step", static_cast<double>(last_report_.steps.solver_iterations) / steps);
   status.add("solver converged", last_report_.steps.converged);
   status.add("paused", paused_);
+  if (simulation_->options().self_collision.enabled) {
+    // The last frame's self-contacts: pairs pushed apart, particles the fail-safe stopped, and pairs a pin
+    // or gripper dragged through (the frame's warning names those).
+    const core::SelfCollisionStats& self = last_report_.self_collision;
+    status.add("self-collision contacts", self.contacts);
+    status.add("self-collision stopped particles", self.frozen);
+    status.add("self-collision forced pairs", self.forced);
+  }
   std::string held;  // ids, so that a client can see whether its grasp is still held
   for (const core::Grasp& grasp : simulation_->grasps()) held += (held.empty() ? "" : ", ") + std::to_string(grasp.id);
   status.add("grasps held", held);

@@ -9,7 +9,9 @@
 // parser (applySceneYaml) and one validation (validateSceneOptions), so a key means here what it means there.
 #include "cloth_sim/core/constants.h"
 #include "cloth_sim/core/options.h"
+#include "cloth_sim/core/scripted_fold.h"
 #include "cloth_sim/core/simulation.h"
+#include "cloth_sim/core/spatial_hash.h"
 #include "cloth_sim/core/state.h"
 #include "cloth_sim/io/scene_file.h"
 
@@ -110,6 +112,8 @@ Times a cloth scene and prints one JSON line on stdout.
                          lying along it and pressing 1 cm in and out of it at 1 Hz: the cost of robot links
   --grippers N           hold the cloth with N grippers (Simulation::attachGripper) along its bottom row, each
                          holding one particle and circling 2 cm at 1 Hz: the cost of grippers (0: none)
+  --fold                 fold the cloth in half with two hands as the `fold` scene's demo does (ScriptedFold,
+                         scripted_fold.h): the cost of a fold, with self-collision as the scene sets it
   --help                 this text
 
 Other modes (each with its own --help): --accuracy (speed against accuracy of every integrator and substep count
@@ -141,6 +145,7 @@ struct BenchOptions {
   std::optional<double> stop_above_strain;  ///< set only by --stop-above-strain
   int grippers = 0;                         ///< --grippers N
   int capsules = 0;                         ///< --capsules N
+  bool fold = false;                        ///< --fold
   bool help = false;
 };
 
@@ -192,6 +197,10 @@ void parseCommandLine(int argc, char** argv, BenchOptions* options, std::vector<
       options->bullet = true;
       continue;
     }
+    if (flag == "--fold") {
+      options->fold = true;
+      continue;
+    }
     if (!takesValue(flag)) {
       errors->push_back("unknown option '" + flag + "' (see --help)");
       continue;
@@ -230,6 +239,7 @@ void parseCommandLine(int argc, char** argv, BenchOptions* options, std::vector<
 
   if (options->grippers > 0 && options->bullet) errors->push_back("--grippers: Bullet's run has no grippers");
   if (options->capsules > 0 && options->bullet) errors->push_back("--capsules: Bullet's run has no frame colliders");
+  if (options->fold && options->bullet) errors->push_back("--fold: Bullet's run has no hands");
   if (options->grippers > static_cast<int>(core::Simulation::kMaxGrippers)) {
     errors->push_back("--grippers " + std::to_string(options->grippers) + ": at most " +
                       std::to_string(core::Simulation::kMaxGrippers));
@@ -283,6 +293,10 @@ struct BenchResult {
   std::optional<long long> springs;  ///< springs (ours) or links (Bullet) in the cloth
   double rss_mb = 0;
   int threads = 1;
+  /// With self-collision: pairs pushed apart per timed frame, and the broad phase's share of a frame's
+  /// time (one SweptPairFinder::find over the frame's motion, timed apart, times the two finds per substep).
+  std::optional<double> self_contacts_per_frame;
+  std::optional<double> broad_phase_share;
   double stiffness = 0;  ///< ours: structural N/m; Bullet: link stiffness m_kLST in (0, 1]
 };
 
@@ -385,9 +399,18 @@ BenchResult runOurs(const BenchOptions& options, const core::SceneOptions& scene
   frame_ms.reserve(static_cast<std::size_t>(options.frames));
   long long solver_iterations = 0, integrator_steps = 0;
   int converged_frames = 0;
+  const core::ScriptedFold fold;
+  const bool self_colliding = scene.self_collision.enabled;
+  core::SweptPairFinder finder;
+  std::vector<std::pair<int, int>> pairs;
+  const double thickness_m = core::selfCollisionThickness_m(scene.self_collision, sim.grid());
+  double self_contacts = 0.0;
+  double broad_phase_ms = 0.0;
   const int total_frames = options.warmup_frames + options.frames;
   for (int frame = 0; frame < total_frames; ++frame) {
+    const Eigen::Matrix3Xd frame_start_m = self_colliding ? sim.state().positions_m : Eigen::Matrix3Xd();
     const Clock::time_point start = Clock::now();
+    if (options.fold) fold.drive(sim);
     moveBenchGrippers(sim, gripper_homes);
     for (int k = 0; k < options.capsules; ++k) {
       std::string error;
@@ -409,11 +432,27 @@ BenchResult runOurs(const BenchOptions& options, const core::SceneOptions& scene
       solver_iterations += report.steps.solver_iterations;
       integrator_steps += report.substeps_used;
       if (report.steps.converged) ++converged_frames;
+      if (self_colliding) {
+        self_contacts += report.self_collision.contacts;
+        const Clock::time_point find_start = Clock::now();
+        const Eigen::Matrix3Xd& rest = sim.grid().rest_positions_m;
+        const double exempt_m = core::SelfCollision::kExemptRestThicknesses * thickness_m;
+        finder.find(frame_start_m, sim.state().positions_m, thickness_m,
+                    [&](int i, int j) { return (rest.col(i) - rest.col(j)).norm() > exempt_m; }, &pairs);
+        constexpr int kFindsPerSubstep = 2;  // the response's and the fail-safe's
+        broad_phase_ms += kFindsPerSubstep * report.substeps_used * millisecondsSince(find_start);
+      }
     }
     result.stopped = stopReason(options, report, finite);
     if (!result.stopped.empty()) break;
   }
 
+  if (self_colliding && !frame_ms.empty()) {
+    double total_ms = 0.0;
+    for (const double ms : frame_ms) total_ms += ms;
+    result.self_contacts_per_frame = self_contacts / static_cast<double>(frame_ms.size());
+    result.broad_phase_share = total_ms > 0.0 ? broad_phase_ms / total_ms : 0.0;
+  }
   const cloth_sim::bench::FrameTimings timings = cloth_sim::bench::summarizeFrameTimes(frame_ms);
   result.ms_per_frame = timings.mean_ms;
   result.p50_ms = timings.p50_ms;
@@ -545,6 +584,10 @@ std::string toJson(const BenchOptions& options, const core::SceneOptions& scene,
       .add("dynamic", options.dynamic)
       .add("grippers", options.grippers)
       .add("capsules", options.capsules)
+      .add("fold", options.fold)
+      .add("self_collision", scene.self_collision.enabled)
+      .add("self_contacts_per_frame", r.self_contacts_per_frame)
+      .add("broad_phase_share", r.broad_phase_share)
       .add("frames", options.frames)
       .add("warmup", options.bullet ? 0 : options.warmup_frames)
       .add("frames_timed", r.frames_timed)

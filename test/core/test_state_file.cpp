@@ -109,6 +109,9 @@ bool sameBits(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   check(sameBits(a.contact.depth_m, b.contact.depth_m), "contact_depth");
   check(sameBits(a.contact.restitution, b.contact.restitution), "restitution");
   check(sameBits(a.contact.friction, b.contact.friction), "friction");
+  check(a.self_collision.enabled == b.self_collision.enabled, "self_collision");
+  check(sameBits(a.self_collision.thickness_m, b.self_collision.thickness_m), "self_collision_thickness");
+  check(sameBits(a.self_collision.friction, b.self_collision.friction), "self_collision_friction");
   check(sameBits(a.grasp_stiffness_N_per_m, b.grasp_stiffness_N_per_m), "grasp_stiffness");
   check(sameBits(a.grasp_damping_N_s_per_m, b.grasp_damping_N_s_per_m), "grasp_damping");
   check(a.integrator == b.integrator, "integrator");

@@ -819,6 +819,48 @@ TEST_F(NodeTest, ReconfigureSwitchesThePreconditionerAndRefusesAnUnknownOne) {
   EXPECT_EQ(stringIn(reconfigure.response.config, "solver_preconditioner"), "multigrid");
 }
 
+TEST_F(NodeTest, ReconfigureSwitchesSelfCollisionOnAndRefusesANegativeThickness) {
+  ASSERT_NO_FATAL_FAILURE(freshScene(false));
+  ASSERT_TRUE(states_->waitForNext(10.0, states_->count()));
+  const auto boolIn = [](const dynamic_reconfigure::Config& config, const std::string& name) {
+    for (const auto& parameter : config.bools) {
+      if (parameter.name == name) return static_cast<int>(parameter.value);
+    }
+    return -1;
+  };
+  const auto doubleIn = [](const dynamic_reconfigure::Config& config, const std::string& name) {
+    for (const auto& parameter : config.doubles) {
+      if (parameter.name == name) return parameter.value;
+    }
+    return std::numeric_limits<double>::quiet_NaN();
+  };
+  dynamic_reconfigure::Reconfigure reconfigure;
+  dynamic_reconfigure::BoolParameter on;
+  on.name = "self_collision";
+  on.value = true;
+  reconfigure.request.config.bools.push_back(on);
+  dynamic_reconfigure::DoubleParameter thickness;
+  thickness.name = "self_collision_thickness";
+  thickness.value = 0.03;
+  reconfigure.request.config.doubles.push_back(thickness);
+  ASSERT_TRUE(callService(nodeTopic("tuning/set_parameters"), reconfigure));
+  EXPECT_EQ(boolIn(reconfigure.response.config, "self_collision"), 1);
+  EXPECT_DOUBLE_EQ(doubleIn(reconfigure.response.config, "self_collision_thickness"), 0.03);
+  reconfigure.request.config.doubles.front().value = -0.01;
+  ASSERT_TRUE(callService(nodeTopic("tuning/set_parameters"), reconfigure));
+  EXPECT_DOUBLE_EQ(doubleIn(reconfigure.response.config, "self_collision_thickness"), 0.03)
+      << "a refused thickness leaves the one in force";
+  const std::uint64_t since = states_->count();
+  const auto now = states_->waitForNext(10.0, since);
+  ASSERT_TRUE(now);
+  EXPECT_TRUE(states_->waitFor([&](const ClothState& s) { return s.frame >= now->frame + 5; }, 10.0, since))
+      << "the node stopped with self-collision on";
+  reconfigure.request.config.doubles.clear();
+  reconfigure.request.config.bools.front().value = false;
+  ASSERT_TRUE(callService(nodeTopic("tuning/set_parameters"), reconfigure));
+  EXPECT_EQ(boolIn(reconfigure.response.config, "self_collision"), 0);
+}
+
 TEST_F(NodeTest, ReconfigureKeepsTheWindFromTheTopic) {
   // A reconfigure of substeps carries the wind sliders too; they must not overwrite a wind that came
   // in on ~wind. Paused, so each check is a fixed number of frames.

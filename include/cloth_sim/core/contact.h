@@ -112,6 +112,16 @@ double maxFrameColliderPenetration(const std::vector<FrameCollider>& colliders,
                                    const std::vector<FrameColliderTrack>& tracks, double time_s,
                                    const Eigen::Matrix3Xd& positions_m);
 
+/// Moves a point that is inside a plane, sphere (at time_s) or box onto its surface (position only, no
+/// velocity change); true if it moved. Frame colliders are not considered. What another position
+/// correction (self-collision) uses to keep a particle it pushed out of the table it rests on.
+bool liftOntoSurfaces(const ColliderSet& colliders, double time_s, Eigen::Ref<Eigen::Vector3d> point_m);
+
+/// The smallest signed distance from a point to a plane, sphere (at time_s) or box, m (infinity without
+/// them; frame colliders are not considered), and that surface's outward unit normal there if `normal`.
+double nearestSurfaceDistance_m(const ColliderSet& colliders, double time_s, const Eigen::Vector3d& point_m,
+                                Eigen::Vector3d* normal = nullptr);
+
 /// The deepest a particle sits inside any collider, m (negative signed distance); 0 when none is inside.
 double maxPenetration(const ColliderSet& colliders, double time_s, const Eigen::Matrix3Xd& positions_m);
 

@@ -6,6 +6,7 @@
 #include "cloth_sim/core/contact.h"
 #include "cloth_sim/core/forces.h"
 #include "cloth_sim/core/integrators.h"
+#include "cloth_sim/core/self_collision.h"
 
 #include <Eigen/Core>
 
@@ -54,6 +55,8 @@ struct OptionLimits {
   static constexpr double kMaxGustAmplitude = 10.0;          ///< relative to the mean wind
   static constexpr double kMaxContactDepth_m = 1.0;
   static constexpr double kMaxFriction = 10.0;
+  /// Thickest self_collision_thickness, m (0 is its default: from the grid spacing).
+  static constexpr double kMaxSelfCollisionThickness_m = 1.0;
   static constexpr double kMinSolverTolerance = 1e-14;  ///< below rounding the solve cannot converge
   static constexpr int kMaxSolverIterations = 10000;
   static constexpr int kMaxThreads = 64;
@@ -117,6 +120,8 @@ struct SceneOptions {
 
   ColliderSet colliders;
   ContactOptions contact;
+  /// Off by default: a scene pays nothing for layers it does not have (issue 15).
+  SelfCollisionOptions self_collision;
 
   double grasp_stiffness_N_per_m = 50.0;  ///< used when a grasp asks for 0
   double grasp_damping_N_s_per_m = 0.5;

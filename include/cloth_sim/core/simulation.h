@@ -71,6 +71,8 @@ struct FrameReport {
   double stable_step_s = 0.0;
   double stability_margin = 0.0;
   ContactStats contacts;  ///< summed over the frame's substeps
+  /// Self-collision's work summed over the frame's substeps (all zero when it is off).
+  SelfCollisionStats self_collision;
   StepReport steps;       ///< the integrator's work summed over the accepted computation's substeps
   double max_strain = 0.0;  ///< largest structural stretch (|d| - L) / L after the frame
 };
@@ -220,7 +222,7 @@ class Simulation {
   bool recover(const FrameEnvelope& envelope, FrameReport* report);
   /// Runs one frame in the given number of substeps from the current state; adds the integrator's work
   /// to *steps.
-  ContactStats integrateFrame(int substeps, StepReport* steps);
+  ContactStats integrateFrame(int substeps, StepReport* steps, SelfCollisionStats* self_collision);
 
   /// Before a frame: a gripper or frame collider that was not moved for it holds still (its track starts
   /// at this frame).
@@ -248,6 +250,7 @@ class Simulation {
   Eigen::Matrix3Xd substep_start_positions_m_;  ///< scratch for the contact sweep
   Eigen::Matrix3Xf colors_;
   std::unique_ptr<Integrator> integrator_;
+  SelfCollision self_collision_;  ///< scratch only: nothing carried from one substep to the next
   /// With grippers: the velocities at the start of the last substep and its length (the held particles'
   /// acceleration over it enters their reaction), and the wrenches of the last frame.
   Eigen::Matrix3Xd last_step_start_velocities_m_per_s_;

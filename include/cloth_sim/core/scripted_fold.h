@@ -1,0 +1,40 @@
+// A two-handed fold, scripted (issue 15's `fold` scene): what a person folding a towel in half does, as
+// grasp requests over time. The same script drives the tests, `cloth_bench --fold` and, through the
+// ~grasp topic, scripts/fold_demo_driver.py.
+//
+// The hands take the two corners of the cloth's last row and carry them over the middle on a half circle
+// (in the plane of the rows' direction and the cloth's normal u x v) onto the first row's corners, ending
+// kSetDownThicknesses thicknesses above them; they hold there a moment, then let go.
+#pragma once
+
+#include "cloth_sim/core/grid.h"
+#include "cloth_sim/core/simulation.h"
+
+#include <Eigen/Core>
+
+#include <vector>
+
+namespace cloth_sim::core {
+
+struct ScriptedFold {
+  double start_s = 0.2;   ///< the hands close on the corners
+  double carry_s = 1.6;   ///< and carry them over in this long (smoothstep along the half circle)
+  double hold_s = 0.4;    ///< then hold still before letting go
+  double grasp_stiffness_N_per_m = 0.0;  ///< 0: the scene's grasp_stiffness
+  /// Where the hands set the corners down: this many thicknesses above the first row.
+  static constexpr double kSetDownThicknesses = 1.5;
+  /// Grasp ids the script uses (first hand, second hand).
+  static constexpr std::uint32_t kFirstGraspId = 7001;
+
+  double releaseTime_s() const { return start_s + carry_s + hold_s; }
+  /// The particles the hands hold: the last row's corners.
+  std::vector<int> heldParticles(const ClothGrid& grid) const;
+  /// Where the hands are at time_s, world frame (one per held particle), for a cloth that lies flat on its
+  /// rest grid and self-collision `thickness_m`.
+  std::vector<Eigen::Vector3d> handPositions_m(const ClothGrid& grid, double thickness_m, double time_s) const;
+  /// Grabs, moves or releases the hands for the frame that starts at simulation.state().time_s (call
+  /// before advanceFrame): the targets are where the hands are at the frame's end.
+  void drive(Simulation& simulation) const;
+};
+
+}  // namespace cloth_sim::core

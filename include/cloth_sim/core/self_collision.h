@@ -1,0 +1,109 @@
+// Self-collision (issue 15): the cloth never passes through itself.
+//
+// Method (doc/PHYSICS.md, "Self-collision"): particles are kept at least a thickness h apart, pair by
+// pair, after each substep (after the colliders), as in Mueller's hashed particle self-collision;
+// particles closer than kExemptRestThicknesses x h on the rest grid are exempt (the springs keep them
+// apart). A swept spatial hash (spatial_hash.h) finds the pairs. Then, all on the substep's result, in
+// one fixed order:
+//   1. response: kResponseSweeps Gauss-Seidel sweeps push every pair closer than h back to h, mass-
+//      weighted, along the line between them (along their start direction if they passed each other; a
+//      particle on a table or the floor is held by it, and the one above it moves along the surface's
+//      normal), each sweep lifting what it pushed into a surface back onto it; then friction between
+//      the layers on the pair's relative sliding (Coulomb, bounded by friction x the normal push), and an
+//      inelastic velocity change: the pair's approach is removed, with friction on its sliding;
+//   2. fail-safe: every pair whose straight path over the substep came closer than kFailSafeFraction x h
+//      (and closer than it started) has its free particles put back where the substep started them, at
+//      rest, until no such pair is left (it ends: with every free particle back, nothing moved).
+// The guarantee: while no triangle edge is longer than kFailSafeFraction x h / kCoverFactor, no two
+// triangles whose particles are all further than the exempt distance apart on the rest grid pass through
+// each other within a substep (doc/PHYSICS.md has the argument), except where a pin or gripper (a particle
+// with no inverse mass) drags the cloth through itself: that is counted (SelfCollisionStats::forced) and
+// reported in the frame's warning, not hidden.
+#pragma once
+
+#include "cloth_sim/core/contact.h"
+#include "cloth_sim/core/grid.h"
+#include "cloth_sim/core/spatial_hash.h"
+
+#include <Eigen/Core>
+
+#include <utility>
+#include <vector>
+
+namespace cloth_sim::core {
+
+/// Scene keys self_collision, self_collision_thickness, self_collision_friction.
+struct SelfCollisionOptions {
+  bool enabled = false;
+  /// The distance layers keep, m; 0: kDefaultThicknessPerDiagonal x the grid cell's diagonal.
+  double thickness_m = 0.0;
+  double friction = 0.3;  ///< Coulomb coefficient between layers, >= 0
+};
+
+/// The default thickness per cell diagonal sqrt(du^2 + dv^2). The fail-safe keeps pairs at least
+/// kFailSafeFraction x h apart, and a point of the cloth passing through a triangle comes within
+/// kCoverFactor x (its longest edge) of some particle pair across the two layers: so 1.5 diagonals leaves
+/// the guarantee in force up to edges 11 % longer than the rest diagonal.
+constexpr double kDefaultThicknessPerDiagonal = 1.5;
+
+/// The thickness in force: options.thickness_m, or its default for the grid.
+double selfCollisionThickness_m(const SelfCollisionOptions& options, const ClothGrid& grid);
+
+/// What self-collision did in one or more substeps.
+struct SelfCollisionStats {
+  int candidate_pairs = 0;  ///< pairs the broad phase handed to the response
+  int contacts = 0;         ///< pairs the response pushed apart
+  int frozen = 0;           ///< particles the fail-safe put back where their substep started
+  /// Pairs the fail-safe could not separate because a particle with no inverse mass (pinned, held by a
+  /// gripper) drags the other through: the cloth was pulled through itself by a hand.
+  int forced = 0;
+  /// Longest triangle edge / the longest for which the guarantee holds (above 1: not guaranteed), after
+  /// the last substep.
+  double stretch_ratio = 0.0;
+  SelfCollisionStats& operator+=(const SelfCollisionStats& other);
+};
+
+/// Self-collision's broad phase, response and fail-safe for one grid, with its scratch memory. No state
+/// is carried from one call to the next (a restored run continues bit for bit).
+class SelfCollision {
+ public:
+  /// Pairs closer than this many thicknesses on the rest grid are exempt. Not 1: the cloth between two
+  /// particles an arc s apart around a fold is a chord shorter than s, so pairs just over h apart on the
+  /// grid could never be h apart in a fold (they fought it and crept). A fold of radius h / 2 puts particles
+  /// pi h / 2 apart on the grid h apart in space: 2 leaves room for that.
+  static constexpr double kExemptRestThicknesses = 1.6;
+  /// Gauss-Seidel sweeps of the response per substep.
+  static constexpr int kResponseSweeps = 4;
+  /// The fail-safe keeps every exempt-free pair at least this fraction of the thickness apart.
+  static constexpr double kFailSafeFraction = 0.8;
+  /// Any point on an edge of one triangle that lies in another is within this times the longest edge of
+  /// the two of a particle of each (half an edge, plus the farthest a point of a triangle is from its
+  /// nearest vertex, at most the longest edge / sqrt(3)).
+  static constexpr double kCoverFactor = 0.5 + 0.57735026918962576;
+
+  /// Resolves self-contacts after a substep ending at time_s: start_m are the particles at the
+  /// substep's start (free of self-contact as this leaves them), positions and velocities its result
+  /// (after the colliders). Particles with zero inverse mass are never moved.
+  SelfCollisionStats resolve(const ClothGrid& grid, const SelfCollisionOptions& options, const ColliderSet& colliders,
+                             const ContactOptions& contact, double time_s, const Eigen::VectorXd& inverse_mass_per_kg,
+                             const Eigen::Matrix3Xd& start_m, Eigen::Matrix3Xd& positions_m,
+                             Eigen::Matrix3Xd& velocities_m_per_s);
+
+ private:
+  SweptPairFinder finder_;
+  std::vector<std::pair<int, int>> pairs_;
+  Eigen::VectorXd supported_weight_;  ///< inverse mass, 0 for a particle a table or the floor holds
+  Eigen::Matrix3Xd surface_normals_;  ///< for those, the surface's outward normal
+  std::vector<double> pushed_m_;     ///< per pair: the normal push the response gave it
+  std::vector<Eigen::Vector3d> normals_;
+  std::vector<int> row_of_;  ///< per particle: its row and column on the grid
+  std::vector<int> col_of_;
+  std::vector<char> moved_;
+  std::vector<char> frozen_;
+};
+
+/// The closest two points moving in straight lines come: a from a0 to a1, b from b0 to b1, m.
+double closestApproach_m(const Eigen::Vector3d& a0, const Eigen::Vector3d& a1, const Eigen::Vector3d& b0,
+                         const Eigen::Vector3d& b1);
+
+}  // namespace cloth_sim::core

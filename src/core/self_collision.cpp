@@ -1,0 +1,224 @@
+#include "cloth_sim/core/self_collision.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace cloth_sim::core {
+
+namespace {
+
+/// Below this (relative to the thickness) a direction between two particles is undefined.
+constexpr double kTinyFraction = 1e-9;
+
+/// The longest edge of any triangle, m (the shear diagonals and the structural edges).
+double longestTriangleEdge_m(const ClothGrid& grid, const Eigen::Matrix3Xd& positions_m) {
+  double longest_squared = 0.0;
+  const std::vector<int>& t = grid.triangles;
+  for (std::size_t k = 0; k + 2 < t.size(); k += 3) {
+    for (int e = 0; e < 3; ++e) {
+      const int a = t[k + e];
+      const int b = t[k + (e + 1) % 3];
+      longest_squared = std::max(longest_squared, (positions_m.col(a) - positions_m.col(b)).squaredNorm());
+    }
+  }
+  return std::sqrt(longest_squared);
+}
+
+}  // namespace
+
+double selfCollisionThickness_m(const SelfCollisionOptions& options, const ClothGrid& grid) {
+  if (options.thickness_m > 0.0) return options.thickness_m;
+  // The cell's diagonal on the rest grid (particles 0 and cols + 1; a single row or column: its spacing).
+  const int diagonal = grid.rows > 1 && grid.cols > 1 ? grid.cols + 1 : 1;
+  const double diagonal_m = (grid.rest_positions_m.col(diagonal) - grid.rest_positions_m.col(0)).norm();
+  return kDefaultThicknessPerDiagonal * diagonal_m;
+}
+
+SelfCollisionStats& SelfCollisionStats::operator+=(const SelfCollisionStats& other) {
+  candidate_pairs += other.candidate_pairs;
+  contacts += other.contacts;
+  frozen += other.frozen;
+  forced += other.forced;
+  stretch_ratio = other.stretch_ratio;  // the latest substep's
+  return *this;
+}
+
+double closestApproach_m(const Eigen::Vector3d& a0, const Eigen::Vector3d& a1, const Eigen::Vector3d& b0,
+                         const Eigen::Vector3d& b1) {
+  const Eigen::Vector3d start = b0 - a0;
+  const Eigen::Vector3d change = (b1 - a1) - start;
+  const double a = change.squaredNorm();
+  const double s = a > 0.0 ? std::clamp(-start.dot(change) / a, 0.0, 1.0) : 0.0;
+  return (start + s * change).norm();
+}
+
+SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfCollisionOptions& options,
+                                          const ColliderSet& colliders, const ContactOptions& contact, double time_s,
+                                          const Eigen::VectorXd& inverse_mass_per_kg, const Eigen::Matrix3Xd& start_m,
+                                          Eigen::Matrix3Xd& positions_m, Eigen::Matrix3Xd& velocities_m_per_s) {
+  SelfCollisionStats stats;
+  const double thickness_m = selfCollisionThickness_m(options, grid);
+  const double tiny_m = kTinyFraction * thickness_m;
+  // A particle resting on a table or the floor (within the contact band) is held by it: a pair pushes
+  // only its other particle (else the floor pushed the lower layer back up into the upper one every
+  // step, and the two crept).
+  supported_weight_ = inverse_mass_per_kg;
+  surface_normals_.resize(3, grid.particleCount());
+  if (!colliders.empty()) {
+    for (int i = 0; i < grid.particleCount(); ++i) {
+      Eigen::Vector3d normal;
+      if (nearestSurfaceDistance_m(colliders, time_s, positions_m.col(i), &normal) > contact.depth_m) continue;
+      supported_weight_[i] = 0.0;
+      surface_normals_.col(i) = normal;
+    }
+  }
+  const Eigen::VectorXd& w = supported_weight_;
+  const Eigen::Matrix3Xd& rest = grid.rest_positions_m;
+  const int count = grid.particleCount();
+  // Neighbours on the rest grid are exempt (the springs keep them apart), and so are two particles
+  // neither of which can move.
+  const double exempt_m = SelfCollision::kExemptRestThicknesses * thickness_m;
+  const double exempt_squared = exempt_m * exempt_m;
+  // On the rest grid (flat, orthonormal axes) two particles are (dc du, dr dv) apart: no memory read.
+  const double du_squared = (rest.col(std::min(1, count - 1)) - rest.col(0)).squaredNorm();
+  const double dv_squared = (rest.col(std::min(grid.cols, count - 1)) - rest.col(0)).squaredNorm();
+  row_of_.resize(static_cast<std::size_t>(count));
+  col_of_.resize(static_cast<std::size_t>(count));
+  for (int i = 0; i < count; ++i) {
+    row_of_[static_cast<std::size_t>(i)] = i / grid.cols;
+    col_of_[static_cast<std::size_t>(i)] = i % grid.cols;
+  }
+  const auto keep = [&](int i, int j) {
+    const double dr = row_of_[static_cast<std::size_t>(j)] - row_of_[static_cast<std::size_t>(i)];
+    const double dc = col_of_[static_cast<std::size_t>(j)] - col_of_[static_cast<std::size_t>(i)];
+    return dr * dr * dv_squared + dc * dc * du_squared > exempt_squared &&
+           (inverse_mass_per_kg[i] > 0.0 || inverse_mass_per_kg[j] > 0.0);
+  };
+
+  // 1. Response. The candidates reach 1.5 h: a pair the sweeps push towards each other is still seen.
+  constexpr double kResponseReach = 1.5;
+  finder_.find(start_m, positions_m, kResponseReach * thickness_m, keep, &pairs_);
+  stats.candidate_pairs = static_cast<int>(pairs_.size());
+  pushed_m_.assign(pairs_.size(), 0.0);
+  normals_.assign(pairs_.size(), Eigen::Vector3d::Zero());
+  moved_.assign(count, 0);
+  for (int sweep = 0; sweep < kResponseSweeps; ++sweep) {
+    for (std::size_t p = 0; p < pairs_.size(); ++p) {
+      const auto [i, j] = pairs_[p];
+      const double weight_sum = w[i] + w[j];
+      if (weight_sum == 0.0) continue;  // both on the floor (or pinned): it keeps them
+      const Eigen::Vector3d was = start_m.col(j) - start_m.col(i);
+      const Eigen::Vector3d now = positions_m.col(j) - positions_m.col(i);
+      const double was_m = was.norm();
+      // Apart along the line between them, unless they passed each other: then back to the side they
+      // started on.
+      Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();
+      // One of them lies on a surface and the other is above it (within 45 degrees of the surface's
+      // normal): the upper one rests along that normal. Along the line between the two, a push tilted off
+      // the normal moved the upper layer sideways with nothing to push back (the surface holds the lower
+      // particle), and the whole folded towel slid over the floor at a steady 5 mm/s.
+      const bool i_below = w[i] == 0.0 && inverse_mass_per_kg[i] > 0.0;
+      const Eigen::Vector3d up = i_below ? Eigen::Vector3d(surface_normals_.col(i)) : Eigen::Vector3d(-surface_normals_.col(j));
+      const bool resting = (i_below || (w[j] == 0.0 && inverse_mass_per_kg[j] > 0.0)) &&
+                           now.dot(up) >= (now - now.dot(up) * up).norm();
+      if (resting) {
+        normal = up;
+      } else if (now.dot(was) > 0.0 && now.norm() > tiny_m) {
+        normal = now.normalized();
+      } else if (was_m > tiny_m) {
+        normal = was / was_m;
+      }
+      const double gap_m = now.dot(normal);
+      if (gap_m >= thickness_m) continue;
+      const Eigen::Vector3d push = (thickness_m - gap_m) * normal;
+      positions_m.col(i) -= (w[i] / weight_sum) * push;
+      positions_m.col(j) += (w[j] / weight_sum) * push;
+      pushed_m_[p] += thickness_m - gap_m;
+      normals_[p] = normal;
+      moved_[i] = moved_[j] = 1;
+    }
+    // What was pushed into a table or the floor goes back onto it; the next sweep pushes the other way.
+    if (colliders.empty()) continue;
+    for (int i = 0; i < count; ++i) {
+      if (moved_[i]) liftOntoSurfaces(colliders, time_s, positions_m.col(i));
+    }
+  }
+  // Friction between the layers: the pair's relative sliding over the substep, removed up to
+  // friction x the normal push (the position form of Coulomb's law; its velocity follows below).
+  for (std::size_t p = 0; p < pairs_.size(); ++p) {
+    if (pushed_m_[p] <= 0.0) continue;
+    ++stats.contacts;
+    const auto [i, j] = pairs_[p];
+    const Eigen::Vector3d slide = (positions_m.col(j) - start_m.col(j)) - (positions_m.col(i) - start_m.col(i));
+    const Eigen::Vector3d tangential = slide - slide.dot(normals_[p]) * normals_[p];
+    const double length_m = tangential.norm();
+    if (length_m <= 0.0) continue;
+    const double limit_m = options.friction * pushed_m_[p];
+    const Eigen::Vector3d removed = length_m <= limit_m ? tangential : Eigen::Vector3d(tangential * (limit_m / length_m));
+    const double weight_sum = w[i] + w[j];
+    positions_m.col(i) += (w[i] / weight_sum) * removed;
+    positions_m.col(j) -= (w[j] / weight_sum) * removed;
+  }
+  // Velocities: an inelastic contact. The pair's approach along its normal is removed (the push itself adds
+  // no speed: a layer resting on another stays at rest instead of being bounced off it every step), and
+  // Coulomb friction takes up to friction x that change off their relative sliding. The impulse that does
+  // it is solved with a particle on the floor held (the other stops), and the floor's particle then takes
+  // the reaction with its own mass: the floor absorbs it in the next step, so it carries the upper
+  // layer's weight and its friction holds both layers (without the reaction the lower layer slid out from
+  // under the upper one; with the pair's masses shared the upper layer never came to rest).
+  const Eigen::VectorXd& true_weight = inverse_mass_per_kg;
+  for (std::size_t p = 0; p < pairs_.size(); ++p) {
+    if (pushed_m_[p] <= 0.0) continue;
+    const auto [i, j] = pairs_[p];
+    const double weight_sum = w[i] + w[j];
+    const Eigen::Vector3d& normal = normals_[p];
+    const Eigen::Vector3d relative = velocities_m_per_s.col(j) - velocities_m_per_s.col(i);
+    const double approach = std::min(0.0, relative.dot(normal));
+    const Eigen::Vector3d sliding = relative - relative.dot(normal) * normal;
+    const double sliding_speed = sliding.norm();
+    Eigen::Vector3d change = -approach * normal;  // what the pair's relative velocity gains
+    if (sliding_speed > 0.0) change -= std::min(sliding_speed, -options.friction * approach) / sliding_speed * sliding;
+    const Eigen::Vector3d impulse = change / weight_sum;  // kg m/s, on j (and its opposite on i)
+    velocities_m_per_s.col(i) -= (w[i] > 0.0 ? w[i] : true_weight[i]) * impulse;
+    velocities_m_per_s.col(j) += (w[j] > 0.0 ? w[j] : true_weight[j]) * impulse;
+  }
+
+  // 2. Fail-safe: no pair may come closer than kFailSafeFraction h (or than it started) on its path.
+  const double floor_m = kFailSafeFraction * thickness_m;
+  finder_.find(start_m, positions_m, floor_m, keep, &pairs_);
+  frozen_.assign(count, 0);
+  bool changed = true;
+  std::vector<char> forced(pairs_.size(), 0);
+  while (changed) {
+    changed = false;
+    for (std::size_t p = 0; p < pairs_.size(); ++p) {
+      const auto [i, j] = pairs_[p];
+      const double limit_m = std::min(floor_m, (start_m.col(j) - start_m.col(i)).norm()) - tiny_m;
+      if (closestApproach_m(start_m.col(i), positions_m.col(i), start_m.col(j), positions_m.col(j)) >= limit_m) continue;
+      bool froze = false;
+      for (const int k : {i, j}) {
+        if (inverse_mass_per_kg[k] == 0.0 || frozen_[k]) continue;
+        positions_m.col(k) = start_m.col(k);
+        frozen_[k] = 1;
+        froze = true;
+      }
+      if (froze) {
+        changed = true;
+      } else if (!forced[p]) {
+        forced[p] = 1;
+        ++stats.forced;
+      }
+    }
+  }
+
+  // 3. What the fail-safe put back stands still.
+  for (int i = 0; i < count; ++i) {
+    if (!frozen_[i]) continue;
+    velocities_m_per_s.col(i).setZero();
+    ++stats.frozen;
+  }
+  stats.stretch_ratio = longestTriangleEdge_m(grid, positions_m) / (floor_m / kCoverFactor);
+  return stats;
+}
+
+}  // namespace cloth_sim::core
