@@ -3,8 +3,9 @@
 
 The same script as the core's ScriptedFold (include/cloth_sim/core/scripted_fold.h), which the tests and
 `cloth_bench --fold` use: the hands take the two corners of the towel's last row at 0.2 s of simulated
-time, carry them over the middle on a half circle (smoothstep, 1.6 s) onto the first row's corners,
-ending 1.5 self-collision thicknesses above them, hold 0.4 s and let go. It follows the node's simulated
+time, carry them over the middle on a half circle (smoothstep, 1.6 s) over the first row's corners,
+ending 1.5 self-collision thicknesses above them and pi/2 thicknesses short of them (the fold's loop
+takes that much of the towel), hold 0.4 s and let go. It follows the node's simulated
 time from the first ~state it sees (each ~state message moves the hands to where they are at the end of
 the next frame), so it folds the same at any node speed and however late it starts. The towel's grid and thickness come from the first ~state: the towel lies
 flat on its rest grid then, and the thickness is the default, 1.5 grid-cell diagonals (the driver reads
@@ -25,6 +26,7 @@ START_S = 0.2
 CARRY_S = 1.6
 HOLD_S = 0.4
 SET_DOWN_THICKNESSES = 1.5
+LOOP_THICKNESSES = math.pi / 2  # the fold's loop takes pi h / 2 of the towel's length
 THICKNESS_PER_DIAGONAL = 1.5
 FIRST_GRASP_ID = 7001
 FRAME_S = 0.02
@@ -78,13 +80,16 @@ class FoldDriver:
     def hands(self, t):
         angle = math.pi * smoothstep((t - START_S) / CARRY_S)
         set_down = SET_DOWN_THICKNESSES * self.thickness * angle / math.pi
+        short = LOOP_THICKNESSES * self.thickness * angle / math.pi
         out = []
         for held, target in zip(self.held, self.targets):
             start, end = self.rest[held], self.rest[target]
             center = [(start[k] + end[k]) / 2.0 for k in range(3)]
             radius = sub(start, center)
             lift = math.sin(angle) * norm(radius) + set_down
-            out.append([center[k] + math.cos(angle) * radius[k] + lift * self.normal[k] for k in range(3)])
+            length = norm(radius)
+            out.append([center[k] + (math.cos(angle) + short / length) * radius[k] + lift * self.normal[k]
+                        for k in range(3)])
         return out
 
     def on_state(self, state):

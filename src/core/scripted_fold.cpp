@@ -29,6 +29,7 @@ std::vector<Eigen::Vector3d> ScriptedFold::handPositions_m(const ClothGrid& grid
   const Eigen::Vector3d normal = along_row.cross(along_column).normalized();
   const double angle_rad = kPi * smoothstep((time_s - start_s) / carry_s);
   const double set_down_m = kSetDownThicknesses * thickness_m * angle_rad / kPi;
+  const double short_m = kLoopThicknesses * thickness_m * angle_rad / kPi;
   std::vector<Eigen::Vector3d> hands;
   const std::vector<int> held = heldParticles(grid);
   const int targets[] = {grid.index(0, 0), grid.index(0, grid.cols - 1)};
@@ -37,7 +38,8 @@ std::vector<Eigen::Vector3d> ScriptedFold::handPositions_m(const ClothGrid& grid
     const Eigen::Vector3d to = rest.col(targets[h]);
     const Eigen::Vector3d center = 0.5 * (from + to);
     const Eigen::Vector3d radius = from - center;
-    hands.push_back(center + std::cos(angle_rad) * radius + (std::sin(angle_rad) * radius.norm() + set_down_m) * normal);
+    hands.push_back(center + std::cos(angle_rad) * radius + short_m * radius.normalized() +
+                    (std::sin(angle_rad) * radius.norm() + set_down_m) * normal);
   }
   return hands;
 }

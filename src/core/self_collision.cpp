@@ -52,6 +52,37 @@ double closestApproach_m(const Eigen::Vector3d& a0, const Eigen::Vector3d& a1, c
   return (start + s * change).norm();
 }
 
+bool SelfCollision::withinSlack(const Eigen::Matrix3Xd& positions_m, double slack_m) const {
+  return (positions_m - list_positions_m_).cwiseAbs().maxCoeff() <= slack_m;
+}
+
+template <typename Keep, typename Apart>
+void SelfCollision::candidatePairs(const Eigen::Matrix3Xd& start_m, const Eigen::Matrix3Xd& end_m, double reach_m,
+                                   double thickness_m, const Keep& keep, const Apart& apart,
+                                   std::vector<std::pair<int, int>>* pairs) {
+  // A pair whose boxes (start and end, grown by reach / 2) overlap has boxes around the list's positions,
+  // grown by reach / 2 + slack, that overlap too, while every particle is within the slack of them: so a
+  // list built with reach + 2 slack holds every pair find would give, for any reach up to the response's.
+  const double slack_m = kListSlack * thickness_m;
+  const bool valid = list_thickness_m_ == thickness_m && list_positions_m_.cols() == start_m.cols() &&
+                     withinSlack(start_m, slack_m) && withinSlack(end_m, slack_m);
+  if (!valid) {
+    if ((end_m - start_m).cwiseAbs().maxCoeff() > slack_m) {  // moving too far for any list: hash directly
+      list_thickness_m_ = 0.0;
+      finder_.find(start_m, end_m, reach_m, keep, pairs);
+      return;
+    }
+    list_positions_m_ = start_m;
+    list_thickness_m_ = thickness_m;
+    finder_.find(start_m, start_m, (kResponseReach + 2.0 * kListSlack) * thickness_m, apart, &list_pairs_);
+  }
+  finder_.setBoxes(start_m, end_m, reach_m);
+  pairs->clear();
+  for (const auto& [i, j] : list_pairs_) {
+    if (finder_.boxesOverlap(i, j) && keep(i, j)) pairs->emplace_back(i, j);
+  }
+}
+
 SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfCollisionOptions& options,
                                           const ColliderSet& colliders, const ContactOptions& contact, double time_s,
                                           const Eigen::VectorXd& inverse_mass_per_kg, const Eigen::Matrix3Xd& start_m,
@@ -75,8 +106,8 @@ SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfColli
   const Eigen::VectorXd& w = supported_weight_;
   const Eigen::Matrix3Xd& rest = grid.rest_positions_m;
   const int count = grid.particleCount();
-  // Neighbours on the rest grid are exempt (the springs keep them apart), and so are two particles
-  // neither of which can move.
+  // Neighbours on the rest grid are exempt (the springs keep them apart); the response also leaves out
+  // two particles neither of which can move.
   const double exempt_m = SelfCollision::kExemptRestThicknesses * thickness_m;
   const double exempt_squared = exempt_m * exempt_m;
   // On the rest grid (flat, orthonormal axes) two particles are (dc du, dr dv) apart: no memory read.
@@ -88,16 +119,17 @@ SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfColli
     row_of_[static_cast<std::size_t>(i)] = i / grid.cols;
     col_of_[static_cast<std::size_t>(i)] = i % grid.cols;
   }
-  const auto keep = [&](int i, int j) {
+  const auto apart = [&](int i, int j) {
     const double dr = row_of_[static_cast<std::size_t>(j)] - row_of_[static_cast<std::size_t>(i)];
     const double dc = col_of_[static_cast<std::size_t>(j)] - col_of_[static_cast<std::size_t>(i)];
-    return dr * dr * dv_squared + dc * dc * du_squared > exempt_squared &&
-           (inverse_mass_per_kg[i] > 0.0 || inverse_mass_per_kg[j] > 0.0);
+    return dr * dr * dv_squared + dc * dc * du_squared > exempt_squared;
+  };
+  const auto keep = [&](int i, int j) {
+    return apart(i, j) && (inverse_mass_per_kg[i] > 0.0 || inverse_mass_per_kg[j] > 0.0);
   };
 
-  // 1. Response. The candidates reach 1.5 h: a pair the sweeps push towards each other is still seen.
-  constexpr double kResponseReach = 1.5;
-  finder_.find(start_m, positions_m, kResponseReach * thickness_m, keep, &pairs_);
+  // 1. Response.
+  candidatePairs(start_m, positions_m, kResponseReach * thickness_m, thickness_m, keep, apart, &pairs_);
   stats.candidate_pairs = static_cast<int>(pairs_.size());
   pushed_m_.assign(pairs_.size(), 0.0);
   normals_.assign(pairs_.size(), Eigen::Vector3d::Zero());
@@ -185,7 +217,8 @@ SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfColli
 
   // 2. Fail-safe: no pair may come closer than kFailSafeFraction h (or than it started) on its path.
   const double floor_m = kFailSafeFraction * thickness_m;
-  finder_.find(start_m, positions_m, floor_m, keep, &pairs_);
+  // Pairs of two pins or gripped particles too: nothing can stop them, but their crossing is counted.
+  candidatePairs(start_m, positions_m, floor_m, thickness_m, apart, apart, &pairs_);
   frozen_.assign(count, 0);
   bool changed = true;
   std::vector<char> forced(pairs_.size(), 0);

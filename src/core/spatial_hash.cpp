@@ -15,12 +15,16 @@ std::uint32_t cellHash(std::int64_t x, std::int64_t y, std::int64_t z) {
 
 }  // namespace
 
-bool SweptPairFinder::hashBoxes(const Eigen::Matrix3Xd& start_m, const Eigen::Matrix3Xd& end_m, double reach_m) {
-  const int count = static_cast<int>(start_m.cols());
+void SweptPairFinder::setBoxes(const Eigen::Matrix3Xd& start_m, const Eigen::Matrix3Xd& end_m, double reach_m) {
+  const double half_m = 0.5 * reach_m;
+  box_min_m_ = start_m.cwiseMin(end_m).array() - half_m;
+  box_max_m_ = start_m.cwiseMax(end_m).array() + half_m;
+}
+
+bool SweptPairFinder::hashBoxes(double reach_m) {
+  const int count = static_cast<int>(box_min_m_.cols());
   bucket_start_.clear();
   if (count < 2 || !(reach_m > 0.0)) return false;
-  box_min_m_ = start_m.cwiseMin(end_m).array() - 0.5 * reach_m;
-  box_max_m_ = start_m.cwiseMax(end_m).array() + 0.5 * reach_m;
   // Cells as wide as the reach, unless a fast point's box would span more than kMaxCellsPerAxis of them.
   const double widest_m = (box_max_m_ - box_min_m_).maxCoeff();
   cell_m_ = std::max(reach_m, widest_m / kMaxCellsPerAxis);

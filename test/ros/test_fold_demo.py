@@ -6,7 +6,7 @@ The `fold` scene's towel (24 x 24, 0.5 m) lies on the floor; the driver folds it
 - the hands lift the towel's last row (a corner rises above 0.15 m) and the node reports self-contacts;
 - after letting go the moved half lies on the other: every particle of it above its mirror particle, and
   on average within three thicknesses of it;
-- the `pile` scene loads through ~load_scene and runs, its cloth ending draped over the pole.
+- the `pile` scene loads through ~load_scene and runs, its cloth ending draped over the ball.
 """
 import threading
 import time
@@ -84,7 +84,7 @@ class FoldDemo(unittest.TestCase):
         with self.lock:
             state = self.states[-1]
         top = max(p.z for p in state.positions)
-        self.assertGreater(top, 0.24, "the pile's cloth is not draped over the 25 cm pole")
+        self.assertGreater(top, 0.23, "the pile's cloth is not draped over the 24 cm ball")
         self.assertLess(top, 0.4, "the pile's cloth has not fallen")
 
 

@@ -3,8 +3,9 @@
 // ~grasp topic, scripts/fold_demo_driver.py.
 //
 // The hands take the two corners of the cloth's last row and carry them over the middle on a half circle
-// (in the plane of the rows' direction and the cloth's normal u x v) onto the first row's corners, ending
-// kSetDownThicknesses thicknesses above them; they hold there a moment, then let go.
+// (in the plane of the rows' direction and the cloth's normal u x v) over the first row's corners, ending
+// kSetDownThicknesses thicknesses above them and kLoopThicknesses thicknesses short of them (towards the
+// fold); they hold there a moment, then let go.
 #pragma once
 
 #include "cloth_sim/core/grid.h"
@@ -23,6 +24,10 @@ struct ScriptedFold {
   double grasp_stiffness_N_per_m = 0.0;  ///< 0: the scene's grasp_stiffness
   /// Where the hands set the corners down: this many thicknesses above the first row.
   static constexpr double kSetDownThicknesses = 1.5;
+  /// How far short of the first row the hands stop, in thicknesses: the fold's loop, a half circle of
+  /// diameter h, takes pi h / 2 of the cloth's length. Set down exactly over the first row, the moved half
+  /// had no length left for the loop, and the fold line's springs were held at 60 % strain.
+  static constexpr double kLoopThicknesses = 1.5707963267948966;
   /// Grasp ids the script uses (first hand, second hand).
   static constexpr std::uint32_t kFirstGraspId = 7001;
 

@@ -90,7 +90,25 @@ class SelfCollision {
                              Eigen::Matrix3Xd& velocities_m_per_s);
 
  private:
+  /// Reach of the response's candidates, in thicknesses: a pair the sweeps push towards each other is
+  /// still seen.
+  static constexpr double kResponseReach = 1.5;
+  /// The wider list's slack, in thicknesses: it serves while no particle is further than this (along any
+  /// axis) from where the list was built, at the start and the end of a substep.
+  static constexpr double kListSlack = 0.5;
+  /// Fills *pairs with exactly what finder_.find(start, end, reach, keep) would (the same pairs in the
+  /// same order, so results do not depend on when the list was built: save/restore stays bit-exact),
+  /// taken from a wider list (a Verlet list) while it is valid, else from a new one.
+  template <typename Keep, typename Apart>
+  void candidatePairs(const Eigen::Matrix3Xd& start_m, const Eigen::Matrix3Xd& end_m, double reach_m,
+                      double thickness_m, const Keep& keep, const Apart& apart, std::vector<std::pair<int, int>>* pairs);
+  /// Whether every particle of positions_m is within the slack of where the list was built.
+  bool withinSlack(const Eigen::Matrix3Xd& positions_m, double slack_m) const;
+
   SweptPairFinder finder_;
+  std::vector<std::pair<int, int>> list_pairs_;  ///< the wider list: apart pairs within its reach
+  Eigen::Matrix3Xd list_positions_m_;            ///< where it was built
+  double list_thickness_m_ = 0.0;                ///< for which thickness (0: none built)
   std::vector<std::pair<int, int>> pairs_;
   Eigen::VectorXd supported_weight_;  ///< inverse mass, 0 for a particle a table or the floor holds
   Eigen::Matrix3Xd surface_normals_;  ///< for those, the surface's outward normal

@@ -30,7 +30,8 @@ class SweptPairFinder {
   void find(const Eigen::Matrix3Xd& start_m, const Eigen::Matrix3Xd& end_m, double reach_m, const Keep& keep,
             std::vector<std::pair<int, int>>* pairs) {
     pairs->clear();
-    if (!hashBoxes(start_m, end_m, reach_m)) return;
+    setBoxes(start_m, end_m, reach_m);
+    if (!hashBoxes(reach_m)) return;
     for (std::size_t b = 0; b + 1 < bucket_start_.size(); ++b) {
       for (int a = bucket_start_[b]; a < bucket_start_[b + 1]; ++a) {
         for (int c = a + 1; c < bucket_start_[b + 1]; ++c) {
@@ -46,11 +47,19 @@ class SweptPairFinder {
     std::sort(pairs->begin(), pairs->end());
   }
 
+  /// The swept boxes of the last setBoxes (or find): each point's start and end, grown by reach_m / 2.
+  void setBoxes(const Eigen::Matrix3Xd& start_m, const Eigen::Matrix3Xd& end_m, double reach_m);
+  /// Whether the boxes of i and j overlap (what find pairs, before `keep`).
+  bool boxesOverlap(int i, int j) const {
+    return (box_min_m_.col(i).array() <= box_max_m_.col(j).array()).all() &&
+           (box_min_m_.col(j).array() <= box_max_m_.col(i).array()).all();
+  }
+
  private:
   using Cell = std::array<std::int64_t, 3>;
   static bool sameCell(const Cell& a, const Cell& b) { return a[0] == b[0] && a[1] == b[1] && a[2] == b[2]; }
-  /// Fills the table; false when there is nothing to pair.
-  bool hashBoxes(const Eigen::Matrix3Xd& start_m, const Eigen::Matrix3Xd& end_m, double reach_m);
+  /// Fills the table from the boxes; false when there is nothing to pair.
+  bool hashBoxes(double reach_m);
   /// Whether the boxes of i and j overlap and `cell` is the first cell they share (the cell of the larger
   /// of their low corners, per axis): each overlapping pair is tested in exactly one cell.
   bool firstSharedCell(int i, int j, const Cell& cell) const;
