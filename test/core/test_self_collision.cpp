@@ -297,8 +297,8 @@ bool farApartOnTheRestGrid(const ClothGrid& grid, int a, int b, double distance_
 TEST(SelfCollisionTwist, AStripTwistedByTwoHandsTurningOppositeWaysNeverPassesItsFarPartsThroughItself) {
   SceneOptions o;
   o.name = "twist";
-  o.rows = 32;
-  o.cols = 8;
+  o.rows = 64;
+  o.cols = 16;
   o.width_m = 0.14;
   o.height_m = 0.62;
   o.origin_m = {-0.07, -0.31, 0.5};
@@ -343,12 +343,19 @@ o.self_collision.enabled = true;
     int far = 0;
     const auto pairs = crossingTrianglePairs(grid.triangles, simulation.state().positions_m);
     for (const auto& [a, b] : pairs) far += farApartOnTheRestGrid(grid, a, b, exempt_m) ? 1 : 0;
+    if (!pairs.empty() && worst_all == 0) {
+      const int a = grid.triangles[3 * pairs.front().first];
+      const int b = grid.triangles[3 * pairs.front().second];
+      std::cout << "twist: first crossing at " << simulation.state().time_s << " s, near particles (" << a / o.cols << ", "
+                << a % o.cols << ") and (" << b / o.cols << ", " << b % o.cols << ")\n";
+    }
     worst_far = std::max(worst_far, far);
     worst_all = std::max(worst_all, static_cast<int>(pairs.size()));
   }
   // The guarantee: no two triangles further apart on the rest grid than the exempt distance cross. Near
   // ones (a crease within 1.6 thicknesses) are the bend springs' to keep apart, and here they do not
-  // always: issue 15's note gives the count, printed below.
+  // always: one pair at the strip's edge crossed in one frame (21 on an 8 x 32 strip, whose default
+  // thickness is a third of its width); issue 15's note gives the count, printed below.
   std::cout << "twist: " << worst_all << " crossing pairs at worst, " << worst_far << " of them far apart on the grid\n";
   EXPECT_EQ(worst_far, 0);
 }

@@ -1,0 +1,25 @@
+#!/bin/bash
+# The node's ~state rate while the fold demo folds (issue 15): launch/fold.launch at N x N on a master of
+# its own, ~state counted by the C++ cloth_topic_rate over the first SECONDS of the run (the fold itself
+# takes 2.2 s of simulated time, then the towel settles).
+#
+#   scripts/fold_rate.sh WORKSPACE N [SECONDS]
+#
+# WORKSPACE is a built catkin workspace holding cloth_sim (make build prints it).
+ws=${1:?usage: fold_rate.sh WORKSPACE N [SECONDS]}
+n=${2:?usage: fold_rate.sh WORKSPACE N [SECONDS]}
+seconds=${3:-8}
+# Debian's ROS tools are /usr/bin/python3 scripts; a pyenv python3 earlier on PATH has no ROS modules.
+export PATH=/usr/bin:/bin:$PATH
+export ROS_HOME=${ROS_HOME:-$ws/ros_home}
+# shellcheck disable=SC1091
+source "$ws/devel/setup.bash"
+port=$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
+export ROS_MASTER_URI=http://localhost:$port ROS_HOSTNAME=localhost
+log=$(mktemp /tmp/fold_rate.XXXXXX.log)
+roslaunch -p "$port" cloth_sim fold.launch rows:="$n" cols:="$n" >"$log" 2>&1 </dev/null &
+launch=$!
+"$ws/devel/lib/cloth_sim/cloth_topic_rate" --wait 20 --skip 0 --seconds "$seconds" /cloth_node/state
+kill -INT "$launch"
+wait "$launch"
+echo "roslaunch log: $log"
