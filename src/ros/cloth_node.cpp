@@ -839,6 +839,9 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
     status.add("self-collision contacts", self.contacts);
     status.add("self-collision stopped particles", self.frozen);
     status.add("self-collision forced pairs", self.forced);
+    // The longest triangle edge over the longest for which the guarantee holds: above 1 the cloth is
+    // stretched too far for "never passes through itself" to be promised (doc/PHYSICS.md).
+    status.add("self-collision stretch ratio", self.stretch_ratio);
   }
   std::string held;  // ids, so that a client can see whether its grasp is still held
   for (const core::Grasp& grasp : simulation_->grasps()) held += (held.empty() ? "" : ", ") + std::to_string(grasp.id);

@@ -28,6 +28,7 @@ class FoldDemo(unittest.TestCase):
         self.lock = threading.Lock()
         self.states = []
         self.contacts = []
+        self.stretch = []
         rospy.Subscriber("/cloth_node/state", ClothState, self.on_state, queue_size=100)
         rospy.Subscriber("/diagnostics", DiagnosticArray, self.on_diagnostics, queue_size=10)
 
@@ -41,6 +42,9 @@ class FoldDemo(unittest.TestCase):
                 if pair.key == "self-collision contacts":
                     with self.lock:
                         self.contacts.append(int(pair.value))
+                if pair.key == "self-collision stretch ratio":
+                    with self.lock:
+                        self.stretch.append(float(pair.value))
 
     def wait_for(self, condition):
         deadline = time.monotonic() + DEADLINE_S
@@ -59,7 +63,10 @@ class FoldDemo(unittest.TestCase):
         with self.lock:
             state = self.states[-1]
             contacts = list(self.contacts)
+            stretch = list(self.stretch)
         self.assertTrue(any(c > 0 for c in contacts), "no self-collision contacts in the diagnostics: %s" % contacts)
+        # The folded towel at rest is well within the stretch the guarantee allows.
+        self.assertTrue(stretch and 0.0 < stretch[-1] < 1.0, "self-collision stretch ratio: %s" % stretch)
         rows, cols = state.rows, state.cols
         above = 0
         gap = 0.0
