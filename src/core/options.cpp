@@ -167,12 +167,45 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   if (o.u_axis.allFinite() && o.v_axis.allFinite() && std::abs(o.u_axis.dot(o.v_axis)) > kUnitTolerance) {
     problems.fail("u_axis and v_axis: must be orthogonal");
   }
-  problems.inRange("mass", o.mass_kg, L::kMinMass_kg, L::kMaxMass_kg);
   problems.finiteVector("gravity", o.gravity_m_per_s2, L::kMaxAcceleration_m_per_s2);
-  for (int k = 0; k < kSpringKindCount; ++k) {
-    const std::string kind = springKindName(static_cast<SpringKind>(k));
-    problems.inRange(kind + "_stiffness", o.springs[k].stiffness_N_per_m, 0.0, L::kMaxStiffnessN_per_m);
-    problems.inRange(kind + "_damping", o.springs[k].damping_N_s_per_m, 0.0, L::kMaxDampingN_s_per_m);
+  if (o.bend_model == BendModel::kCurvature && !o.has_material) {
+    problems.fail("bend_model = curvature: needs a material (its bending_rigidity): give `material`, or use "
+                  "bend_model = springs");
+  }
+  // With a material, mass and springs are derived for this grid: their limits are checked on what it
+  // gives, and named as its.
+  bool constants_known = true;
+  std::string derived_prefix;
+  SceneOptions resolved;
+  if (o.has_material) {
+    const std::vector<std::string> material_problems = validateMaterial(o.material);
+    for (const std::string& problem : material_problems) problems.fail(problem);
+    const bool grid_valid = o.rows >= L::kMinGridSide && o.cols >= L::kMinGridSide && std::isfinite(o.width_m) &&
+                            o.width_m > 0.0 && std::isfinite(o.height_m) && o.height_m > 0.0 &&
+                            o.gravity_m_per_s2.allFinite();
+    constants_known = material_problems.empty() && grid_valid;
+    if (constants_known) resolved = resolveMaterial(o);
+    derived_prefix = "material gives ";
+  }
+  const SceneOptions& constants = o.has_material ? resolved : o;
+  const double structural_N_per_m = constants.springs[static_cast<int>(SpringKind::kStructural)].stiffness_N_per_m;
+  if (o.has_material && constants_known && o.bend_model == BendModel::kSprings && structural_N_per_m < 0.0) {
+    // The bend springs that give B at this spacing grow as 1 / h^4 and carry tension too (4 k_b): on a
+    // fine enough grid they alone are stiffer in tension than the fabric.
+    std::ostringstream out;
+    out << "bend_model = springs: at this spacing the bend springs that give material.bending_rigidity would "
+           "carry more tension than material.stretch_modulus (structural springs of "
+        << structural_N_per_m << " N/m); use bend_model = curvature, or fewer particles";
+    problems.fail(out.str());
+    constants_known = false;
+  }
+  if (constants_known) {
+    problems.inRange(derived_prefix + "mass", constants.mass_kg, L::kMinMass_kg, L::kMaxMass_kg);
+    for (int k = 0; k < kSpringKindCount; ++k) {
+      const std::string kind = derived_prefix + springKindName(static_cast<SpringKind>(k));
+      problems.inRange(kind + "_stiffness", constants.springs[k].stiffness_N_per_m, 0.0, L::kMaxStiffnessN_per_m);
+      problems.inRange(kind + "_damping", constants.springs[k].damping_N_s_per_m, 0.0, L::kMaxDampingN_s_per_m);
+    }
   }
   problems.inRange("air_damping", o.air_damping_N_s_per_m, 0.0, L::kMaxDampingN_s_per_m);
   problems.finiteVector("wind", o.wind.velocity_m_per_s, L::kMaxWindSpeed_m_per_s);
@@ -276,6 +309,38 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   problems.inRange("frame_rate", o.frame_rate_hz, L::kMinFrameRateHz, L::kMaxFrameRateHz);
   validateCameras(o.cameras, problems);
   return problems.take();
+}
+
+SceneOptions resolveMaterial(const SceneOptions& options) {
+  if (!options.has_material) return options;
+  SceneOptions resolved = options;
+  const MaterialConstants constants =
+      materialConstants(options.material, options.bend_model, options.rows, options.cols, options.width_m,
+                        options.height_m, options.gravity_m_per_s2.norm());
+  resolved.mass_kg = constants.mass_kg;
+  resolved.springs = constants.springs;
+  return resolved;
+}
+
+void buildCurvatureBending(const SceneOptions& o, CurvatureBending* curvature) {
+  if (!o.has_material || o.bend_model != BendModel::kCurvature) {
+    curvature->clear();
+    return;
+  }
+  curvature->build(o.rows, o.cols, o.width_m / (o.cols - 1), o.height_m / (o.rows - 1),
+                   o.material.bending_rigidity_N_m, o.material.damping_s);
+}
+
+double airDampingPerParticle_N_s_per_m(const SceneOptions& o) {
+  if (!o.has_material) return o.air_damping_N_s_per_m;
+  const double particle_area_m2 = o.width_m * o.height_m / (static_cast<double>(o.rows) * o.cols);
+  return o.air_damping_N_s_per_m * particle_area_m2 / kPaperParticleArea_m2;
+}
+
+double paperWindCoefficientPerTriangle_N_s_per_m(const SceneOptions& o) {
+  if (!o.has_material) return o.wind.paper_coefficient_N_s_per_m;
+  const double triangle_area_m2 = o.width_m * o.height_m / (2.0 * (o.rows - 1) * (o.cols - 1));
+  return o.wind.paper_coefficient_N_s_per_m * triangle_area_m2 / kPaperTriangleArea_m2;
 }
 
 std::vector<int> resolvePins(const std::vector<std::string>& selectors, int rows, int cols, std::string* error) {
