@@ -163,6 +163,10 @@ CantileverMeasurement runCantilever(const SceneOptions& scene, int max_frames) {
   }
   measurement.tip_drop_m = -previous.z();
   measurement.tip_reach_m = previous.x();
+  for (int c = 0; c < cols; ++c) {
+    const Eigen::Vector3d p = simulation.state().positions_m.col((rows / 2) * cols + c);
+    measurement.profile_m.emplace_back(p.x(), -p.z());
+  }
   return measurement;
 }
 

@@ -43,6 +43,7 @@ struct CantileverMeasurement {
   double tip_reach_m = 0.0;  ///< its mean reach beyond the clamp
   int frames = 0;            ///< frames simulated
   bool settled = false;      ///< the tip moved less than the settling tolerance in the last frame
+  std::vector<Eigen::Vector2d> profile_m;  ///< (reach, drop) of the middle row's particles, clamp side first
 };
 /// Runs a cantileverScene until its tip settles (at most max_frames).
 CantileverMeasurement runCantilever(const SceneOptions& scene, int max_frames);
