@@ -53,6 +53,14 @@ ClothForceModel::ClothForceModel(const ClothGrid& grid, const SceneOptions& opti
     const bool exists = layout.dr < grid_.rows && std::max(0, layout.dc) < grid_.cols;
     rest_length_m_[f] =
         exists ? (grid_.rest_positions_m.col(second) - grid_.rest_positions_m.col(first)).norm() : 0.0;
+    if (grid_.hasOutline()) {  // a spring exists where both its ends are inside the outline
+      present_[f].assign(static_cast<std::size_t>(grid_.particleCount()), 0);
+      const int offset = kStencilFamilies[f].dr * grid_.cols + kStencilFamilies[f].dc;
+      for (int p = 0; p < grid_.particleCount(); ++p) {
+        const int q = p + offset;
+        if (q >= 0 && q < grid_.particleCount() && grid_.isActive(p) && grid_.isActive(q)) present_[f][p] = 1;
+      }
+    }
   }
   refreshConstraints();
 }
@@ -65,7 +73,8 @@ ClothForceModel::ActiveFamilies ClothForceModel::activeFamilies() const {
     const SpringOptions& spring = options_.springs[kStencilFamilies[f].kind];
     if (!spring.enabled || (spring.stiffness_N_per_m == 0.0 && spring.damping_N_s_per_m == 0.0)) continue;
     active.family[active.count++] = {kStencilFamilies[f].dr, kStencilFamilies[f].dc, rest_length_m_[f],
-                                     spring.stiffness_N_per_m, spring.damping_N_s_per_m};
+                                     spring.stiffness_N_per_m, spring.damping_N_s_per_m,
+                                     grid_.hasOutline() ? present_[f].data() : nullptr};
   }
   return active;
 }
@@ -84,8 +93,12 @@ double* ClothForceModel::threadRowScratch() {
 
 void ClothForceModel::refreshConstraints() {
   kinematics_.setScene(options_, inputs_);
-  buildCurvatureBending(options_, &curvature_);
+  buildCurvatureBending(options_, &curvature_, grid_.active);
   inverse_mass_per_kg_ = mass_kg_.cwiseInverse();
+  // Outside an outline a particle never moves: held where it started, like a pin nobody moves.
+  for (int p = 0; p < grid_.particleCount(); ++p) {
+    if (!grid_.isActive(p)) inverse_mass_per_kg_[p] = 0.0;
+  }
   kinematics_.maskConstrained(inverse_mass_per_kg_);
 }
 

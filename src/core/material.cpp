@@ -7,7 +7,8 @@ namespace cloth_sim::core {
 
 namespace {
 
-/// Largest values a material may give (far beyond fabric: sheet steel of 1 mm has 2e8 N/m).
+/// The ranges a material's values may take: wide around fabric (woven fabrics span about 0.03-0.6 kg/m^2,
+/// 1e3-1e5 N/m and 1e-7-1e-3 N m), short of sheet metal (1 mm steel: 2e8 N/m, 20 N m).
 constexpr double kMinArealDensity_kg_per_m2 = 1e-3;  ///< 1 g/m^2, below the lightest tissue
 constexpr double kMaxArealDensity_kg_per_m2 = 10.0;  ///< heavy canvas and rubber sheet are under 2
 constexpr double kMaxStretchModulus_N_per_m = 1e6;

@@ -18,7 +18,7 @@ bool sameGrid(const SceneOptions& a, const SceneOptions& b) {
   return a.rows == b.rows && a.cols == b.cols && a.width_m == b.width_m && a.height_m == b.height_m &&
          a.origin_m == b.origin_m && a.u_axis == b.u_axis && a.v_axis == b.v_axis && a.pins == b.pins &&
          a.pin_positions_m == b.pin_positions_m && a.pin_travel_time_s == b.pin_travel_time_s &&
-         a.mass_kg == b.mass_kg && a.has_material == b.has_material;
+         a.mass_kg == b.mass_kg && a.has_material == b.has_material && outlineMask(a) == outlineMask(b);
 }
 
 /// Empty when `given` leaves the constants its material sets as the material sets them (a retune passes
@@ -37,10 +37,29 @@ std::string materialConstantChanged(const SceneOptions& given, const SceneOption
   return "";
 }
 
-/// Particle masses: equal shares (the paper), or by area for a material (material.h).
-Eigen::VectorXd particleMasses(const SceneOptions& options, int count) {
-  if (options.has_material) return areaLumpedMasses(options.rows, options.cols, options.mass_kg);
-  return Eigen::VectorXd::Constant(count, options.mass_kg / count);
+/// Particle masses: equal shares (the paper), or by area for a material (material.h); inside an outline
+/// only, each particle outside it keeping the mean mass of those inside (it never moves, and no bound or
+/// ratio then divides by zero).
+Eigen::VectorXd particleMasses(const SceneOptions& options, const ClothGrid& grid) {
+  const int count = grid.particleCount();
+  if (!grid.hasOutline()) {
+    if (options.has_material) return areaLumpedMasses(options.rows, options.cols, options.mass_kg);
+    return Eigen::VectorXd::Constant(count, options.mass_kg / count);
+  }
+  Eigen::VectorXd mass(count);
+  const int inside = static_cast<int>(std::count(grid.active.begin(), grid.active.end(), 1));
+  if (options.has_material) {
+    const Eigen::VectorXd area = keptArea(grid.rows, grid.cols, options.width_m / (grid.cols - 1),
+                                          options.height_m / (grid.rows - 1), grid.active);
+    mass = area * (options.mass_kg / area.sum());
+  } else {
+    mass.setConstant(options.mass_kg / inside);
+  }
+  const double outside_kg = options.mass_kg / inside;
+  for (int p = 0; p < count; ++p) {
+    if (!grid.isActive(p)) mass[p] = outside_kg;
+  }
+  return mass;
 }
 
 /// The options if they are valid; throws std::invalid_argument with the first problem otherwise.
@@ -55,8 +74,8 @@ const SceneOptions& validated(const SceneOptions& options) {
 Simulation::Simulation(const SceneOptions& options)
     : options_(resolveMaterial(validated(options))),
       grid_(buildClothGrid(options.rows, options.cols, options.width_m, options.height_m, options.origin_m,
-                           options.u_axis, options.v_axis)),
-      mass_kg_(particleMasses(options_, grid_.particleCount())),
+                           options.u_axis, options.v_axis, outlineMask(options))),
+      mass_kg_(particleMasses(options_, grid_)),
       force_model_(grid_, options_, mass_kg_, inputs_) {
   colors_ = checkerColors(grid_.uv);
   integrator_ = makeIntegrator(options.integrator, options.solver);
@@ -387,6 +406,10 @@ bool Simulation::grab(const GraspRequest& request, std::string* error) {
     *error = "grasp particle " + std::to_string(request.particle) + " is outside [-1, " + std::to_string(count - 1) + "]";
     return false;
   }
+  if (request.particle >= 0 && !grid_.isActive(request.particle)) {
+    *error = "grasp particle " + std::to_string(request.particle) + " is outside the cloth's outline";
+    return false;
+  }
   const double stiffness =
       request.stiffness_N_per_m > 0.0 ? request.stiffness_N_per_m : options_.grasp_stiffness_N_per_m;
   for (Grasp& grasp : inputs_.grasps) {
@@ -453,6 +476,8 @@ bool Simulation::attachGripper(const GripperRequest& request, std::vector<int>* 
       return false;
     }
     particles = particlesWithin(state_.positions_m, pose.position_m, request.radius_m);
+    particles.erase(std::remove_if(particles.begin(), particles.end(), [&](int p) { return !grid_.isActive(p); }),
+                    particles.end());  // outside the outline: not cloth
     if (particles.empty()) {
       const int nearest = nearestParticle(pose.position_m);
       *error = "radius " + std::to_string(request.radius_m) + " m around '" + request.frame +
@@ -470,6 +495,10 @@ bool Simulation::attachGripper(const GripperRequest& request, std::vector<int>* 
     if (std::find(particles.begin(), particles.begin() + static_cast<std::ptrdiff_t>(k), particle) !=
         particles.begin() + static_cast<std::ptrdiff_t>(k)) {
       *error = "particle " + std::to_string(particle) + " is listed twice";
+      return false;
+    }
+    if (!grid_.isActive(particle)) {
+      *error = "particle " + std::to_string(particle) + " is outside the cloth's outline";
       return false;
     }
     if (std::binary_search(inputs_.pins.begin(), inputs_.pins.end(), particle)) {
@@ -633,6 +662,7 @@ int Simulation::nearestParticle(const Eigen::Vector3d& point_m) const {
   int nearest = 0;
   double best_m2 = std::numeric_limits<double>::infinity();
   for (int i = 0; i < state_.particleCount(); ++i) {
+    if (!grid_.isActive(i)) continue;  // outside the outline: not part of the cloth
     const double d2 = (state_.positions_m.col(i) - point_m).squaredNorm();
     if (d2 < best_m2) {
       best_m2 = d2;

@@ -94,7 +94,7 @@ StiffnessBound estimateStiffnessBound(const SceneOptions& options, const ClothGr
     damping_sum[grasp.particle] += grasp.damping_N_s_per_m;
   }
   CurvatureBending curvature;
-  buildCurvatureBending(options, &curvature);
+  buildCurvatureBending(options, &curvature, grid.active);
   if (!curvature.empty()) {  // its rows' absolute sums are their Gershgorin radii plus the diagonal
     const Eigen::VectorXd sums = curvature.rowAbsSums();
     stiffness_sum += sums;

@@ -30,6 +30,17 @@ constexpr double kSpringCantileverAirDamping_N_s_per_m = 0.02;
 constexpr int kMinStripRows = 3;
 /// Longest overhang searched for a chord angle, in bending lengths (the strip hangs nearly straight down).
 constexpr double kLongestOverhangInBendingLengths = 64.0;
+/// The Cusick specimen's height above nothing (no floor), m.
+constexpr double kCusickHeight_m = 1.0;
+/// Shadow raster, m: 0.5 mm pixels resolve the area of a 30 cm disc to about 0.1 %.
+constexpr double kCusickPixel_m = 5e-4;
+/// Fold counting: the hem's distance from the centre in 1-degree bins; folds between kFewestFolds and
+/// kMostFolds (published drapes have 3 to 12); a wave that grew by under kFoldGrowthSpacings grid
+/// spacings over the flat specimen's is none.
+constexpr int kFoldBins = 360;
+constexpr int kFewestFolds = 2;
+constexpr int kMostFolds = 16;
+constexpr double kFoldGrowthSpacings = 0.1;
 
 struct Shot {
   double end_curvature = 0.0;  ///< theta'(l): zero for the right initial curvature
@@ -167,6 +178,164 @@ CantileverMeasurement runCantilever(const SceneOptions& scene, int max_frames) {
     const Eigen::Vector3d p = simulation.state().positions_m.col((rows / 2) * cols + c);
     measurement.profile_m.emplace_back(p.x(), -p.z());
   }
+  return measurement;
+}
+
+SceneOptions cusickScene(const MaterialOptions& material, BendModel bend_model, int side) {
+  SceneOptions scene;
+  scene.name = "cusick";
+  scene.rows = side;
+  scene.cols = side;
+  scene.width_m = kCusickSpecimenDiameter_m;
+  scene.height_m = kCusickSpecimenDiameter_m;
+  const double radius_m = 0.5 * kCusickSpecimenDiameter_m;
+  scene.origin_m = Eigen::Vector3d(-radius_m, -radius_m, kCusickHeight_m);
+  scene.u_axis = Eigen::Vector3d::UnitX();
+  scene.v_axis = Eigen::Vector3d::UnitY();
+  scene.has_material = true;
+  scene.material = material;
+  scene.bend_model = bend_model;
+  scene.outline.shape = OutlineOptions::Shape::kCircle;
+  scene.outline.center_m = Eigen::Vector2d(radius_m, radius_m);
+  scene.outline.radius_m = radius_m;
+  scene.pins.clear();
+  const double spacing_m = kCusickSpecimenDiameter_m / (side - 1);
+  for (int r = 0; r < side; ++r) {
+    for (int c = 0; c < side; ++c) {
+      const Eigen::Vector2d uv(c * spacing_m, r * spacing_m);
+      if ((uv - scene.outline.center_m).norm() <= 0.5 * kCusickSupportDiameter_m) {
+        scene.pins.push_back(std::to_string(r * side + c));
+      }
+    }
+  }
+  scene.integrator = IntegratorKind::kImplicitEuler;
+  scene.substeps = SceneOptions::kAutoSubsteps;
+  return scene;
+}
+
+double projectedArea_m2(const std::vector<int>& triangles, const Eigen::Matrix3Xd& positions_m, double pixel_m) {
+  if (triangles.empty()) return 0.0;
+  Eigen::Vector2d low(positions_m.row(0).minCoeff(), positions_m.row(1).minCoeff());
+  Eigen::Vector2d high(positions_m.row(0).maxCoeff(), positions_m.row(1).maxCoeff());
+  const int nx = static_cast<int>(std::ceil((high.x() - low.x()) / pixel_m)) + 1;
+  const int ny = static_cast<int>(std::ceil((high.y() - low.y()) / pixel_m)) + 1;
+  std::vector<char> covered(static_cast<std::size_t>(nx) * ny, 0);
+  for (std::size_t t = 0; t + 2 < triangles.size(); t += 3) {
+    const Eigen::Vector2d a = positions_m.col(triangles[t]).head<2>();
+    const Eigen::Vector2d b = positions_m.col(triangles[t + 1]).head<2>();
+    const Eigen::Vector2d c = positions_m.col(triangles[t + 2]).head<2>();
+    const double area2 = (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
+    if (area2 == 0.0) continue;  // seen edge-on from above: no shadow
+    const int x0 = std::max(0, static_cast<int>(std::floor((std::min({a.x(), b.x(), c.x()}) - low.x()) / pixel_m)));
+    const int x1 = std::min(nx - 1, static_cast<int>(std::ceil((std::max({a.x(), b.x(), c.x()}) - low.x()) / pixel_m)));
+    const int y0 = std::max(0, static_cast<int>(std::floor((std::min({a.y(), b.y(), c.y()}) - low.y()) / pixel_m)));
+    const int y1 = std::min(ny - 1, static_cast<int>(std::ceil((std::max({a.y(), b.y(), c.y()}) - low.y()) / pixel_m)));
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1; ++x) {
+        const Eigen::Vector2d p = low + pixel_m * Eigen::Vector2d(x + 0.5, y + 0.5);
+        // Barycentric signs, either winding.
+        const double w0 = ((b - p).x() * (c - p).y() - (b - p).y() * (c - p).x()) / area2;
+        const double w1 = ((c - p).x() * (a - p).y() - (c - p).y() * (a - p).x()) / area2;
+        const double w2 = 1.0 - w0 - w1;
+        if (w0 >= 0.0 && w1 >= 0.0 && w2 >= 0.0) covered[static_cast<std::size_t>(y) * nx + x] = 1;
+      }
+    }
+  }
+  return static_cast<double>(std::count(covered.begin(), covered.end(), 1)) * pixel_m * pixel_m;
+}
+
+namespace {
+
+/// The hem's distance from centre_m (xy plane) in kFoldBins angular bins: the farthest hem particle in
+/// each, empty bins filled from their neighbours.
+std::vector<double> hemProfile(const ClothGrid& grid, const Eigen::Matrix3Xd& positions_m, const Eigen::Vector2d& centre_m) {
+  constexpr double kTwoPi = 2.0 * 3.14159265358979323846;
+  std::vector<double> reach(kFoldBins, -1.0);
+  for (int r = 0; r < grid.rows; ++r) {
+    for (int c = 0; c < grid.cols; ++c) {
+      const int p = grid.index(r, c);
+      if (!grid.isActive(p)) continue;
+      const bool hem = r == 0 || c == 0 || r == grid.rows - 1 || c == grid.cols - 1 || !grid.isActive(p - 1) ||
+                       !grid.isActive(p + 1) || !grid.isActive(p - grid.cols) || !grid.isActive(p + grid.cols);
+      if (!hem) continue;
+      const Eigen::Vector2d d = positions_m.col(p).head<2>() - centre_m;
+      const double angle = std::atan2(d.y(), d.x()) + kTwoPi / 2.0;
+      const int bin = std::min(kFoldBins - 1, static_cast<int>(angle / kTwoPi * kFoldBins));
+      reach[bin] = std::max(reach[bin], d.norm());
+    }
+  }
+  for (int pass = 0; pass < kFoldBins; ++pass) {
+    bool filled = true;
+    for (int i = 0; i < kFoldBins; ++i) {
+      if (reach[i] >= 0.0) continue;
+      filled = false;
+      const double left = reach[(i + kFoldBins - 1) % kFoldBins];
+      const double right = reach[(i + 1) % kFoldBins];
+      if (left >= 0.0 || right >= 0.0) reach[i] = std::max(left, right);
+    }
+    if (filled) break;
+  }
+  return reach;
+}
+
+/// Amplitude of wave number n in a profile, m.
+double harmonicAmplitude(const std::vector<double>& profile, int n) {
+  constexpr double kPi = 3.14159265358979323846;
+  double re = 0.0;
+  double im = 0.0;
+  for (int i = 0; i < kFoldBins; ++i) {
+    const double angle = 2.0 * kPi * n * (i + 0.5) / kFoldBins;
+    re += profile[i] * std::cos(angle);
+    im += profile[i] * std::sin(angle);
+  }
+  return 2.0 * std::hypot(re, im) / kFoldBins;
+}
+
+}  // namespace
+
+int countFolds(const ClothGrid& grid, const Eigen::Matrix3Xd& positions_m, const Eigen::Vector2d& centre_m) {
+  // The number of folds is the wave number whose amplitude in the hem's r(theta) grew most over the flat
+  // specimen's (whose staircase hem on the square grid has waves of its own, of a fraction of a spacing),
+  // between kFewestFolds and kMostFolds; none when no wave grew by kFoldGrowthSpacings spacings.
+  const std::vector<double> draped = hemProfile(grid, positions_m, centre_m);
+  const std::vector<double> flat = hemProfile(grid, grid.rest_positions_m, centre_m);
+  int best = 0;
+  double best_growth_m = 0.0;
+  for (int n = kFewestFolds; n <= kMostFolds; ++n) {
+    const double growth_m = harmonicAmplitude(draped, n) - harmonicAmplitude(flat, n);
+    if (growth_m > best_growth_m) {
+      best_growth_m = growth_m;
+      best = n;
+    }
+  }
+  const double spacing_m = (grid.rest_positions_m.col(1) - grid.rest_positions_m.col(0)).norm();
+  return best_growth_m >= kFoldGrowthSpacings * spacing_m ? best : 0;
+}
+
+CusickMeasurement runCusick(const SceneOptions& scene, double seconds) {
+  Simulation simulation(scene);
+  const int frames = static_cast<int>(std::lround(seconds * scene.frame_rate_hz));
+  const int last_second = frames - static_cast<int>(std::lround(scene.frame_rate_hz));
+  CusickMeasurement measurement;
+  Eigen::Matrix3Xd second_before = simulation.state().positions_m;
+  for (int frame = 0; frame < frames; ++frame) {
+    if (frame == last_second) second_before = simulation.state().positions_m;
+    simulation.advanceFrame();
+  }
+  measurement.frames = frames;
+  measurement.positions_m = simulation.state().positions_m;
+  const ClothGrid& grid = simulation.grid();
+  double motion_m = 0.0;
+  for (int p = 0; p < grid.particleCount(); ++p) {
+    if (grid.isActive(p)) motion_m = std::max(motion_m, (measurement.positions_m.col(p) - second_before.col(p)).norm());
+  }
+  measurement.last_second_motion_m = motion_m;
+  constexpr double kPi = 3.14159265358979323846;
+  const double support_m2 = kPi * 0.25 * kCusickSupportDiameter_m * kCusickSupportDiameter_m;
+  const double specimen_m2 = kPi * 0.25 * kCusickSpecimenDiameter_m * kCusickSpecimenDiameter_m;
+  measurement.projected_area_m2 = projectedArea_m2(grid.triangles, measurement.positions_m, kCusickPixel_m);
+  measurement.drape_coefficient = (measurement.projected_area_m2 - support_m2) / (specimen_m2 - support_m2);
+  measurement.folds = countFolds(grid, measurement.positions_m, Eigen::Vector2d(0.0, 0.0));
   return measurement;
 }
 

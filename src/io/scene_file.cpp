@@ -173,6 +173,38 @@ MaterialOptions readMaterial(const YAML::Node& node) {
   return material;
 }
 
+/// A point of the cloth's own (u, v) plane: [u, v].
+Eigen::Vector2d readPoint2(const YAML::Node& node, const char* expected) {
+  if (!node.IsSequence() || node.size() != 2) throw WrongType{expected};
+  return Eigen::Vector2d(readDouble(node[0]), readDouble(node[1]));
+}
+
+/// `outline`: none, {circle: {center: [u, v], radius: r}} or {polygon: [[u, v], ...]}.
+OutlineOptions readOutline(const YAML::Node& node) {
+  const char* expected = "none, {circle: {center: [u, v], radius: r}} or {polygon: [[u, v], [u, v], [u, v], ...]}";
+  OutlineOptions outline;
+  if (node.IsScalar()) {
+    if (readScalar<std::string>(node, expected, {"str"}) != "none") throw WrongType{expected};
+    return outline;
+  }
+  if (!node.IsMap() || node.size() != 1) throw WrongType{expected};
+  if (node["circle"]) {
+    const YAML::Node circle = node["circle"];
+    if (!circle.IsMap() || circle.size() != 2 || !circle["center"] || !circle["radius"]) throw WrongType{expected};
+    outline.shape = OutlineOptions::Shape::kCircle;
+    outline.center_m = readPoint2(circle["center"], expected);
+    outline.radius_m = readDouble(circle["radius"]);
+  } else if (node["polygon"]) {
+    const YAML::Node polygon = node["polygon"];
+    if (!polygon.IsSequence()) throw WrongType{expected};
+    outline.shape = OutlineOptions::Shape::kPolygon;
+    for (const YAML::Node& corner : polygon) outline.vertices_m.push_back(readPoint2(corner, expected));
+  } else {
+    throw WrongType{expected};
+  }
+  return outline;
+}
+
 /// The keys a material sets (mass and each spring kind's constants): a scene gives them or a material.
 bool isMaterialConstantKey(const std::string& key) {
   if (key == "mass") return true;
@@ -243,6 +275,7 @@ std::map<std::string, Setter> makeSetters() {
     o.material = readMaterial(n);
     o.has_material = true;
   };
+  s["outline"] = [](const YAML::Node& n, SceneOptions& o) { o.outline = readOutline(n); };
   s["bend_model"] = [](const YAML::Node& n, SceneOptions& o) {
     if (!parseBendModelName(readString(n), &o.bend_model)) throw WrongType{"springs or curvature"};
   };
@@ -559,6 +592,21 @@ std::string sceneYaml(const SceneOptions& o) {
     }
   }
   key("bend_model") << bendModelName(o.bend_model);
+  key("outline");
+  if (o.outline.shape == OutlineOptions::Shape::kNone) {
+    out << "none";
+  } else if (o.outline.shape == OutlineOptions::Shape::kCircle) {
+    out << YAML::BeginMap << YAML::Key << "circle" << YAML::Value << YAML::BeginMap << YAML::Key << "center"
+        << YAML::Value << YAML::Flow << YAML::BeginSeq << exactNumber(o.outline.center_m.x())
+        << exactNumber(o.outline.center_m.y()) << YAML::EndSeq << YAML::Key << "radius" << YAML::Value
+        << exactNumber(o.outline.radius_m) << YAML::EndMap << YAML::EndMap;
+  } else {
+    out << YAML::BeginMap << YAML::Key << "polygon" << YAML::Value << YAML::BeginSeq;
+    for (const Eigen::Vector2d& corner : o.outline.vertices_m) {
+      out << YAML::Flow << YAML::BeginSeq << exactNumber(corner.x()) << exactNumber(corner.y()) << YAML::EndSeq;
+    }
+    out << YAML::EndSeq << YAML::EndMap;
+  }
   number("air_damping", o.air_damping_N_s_per_m);
   boolean("wind_enabled", o.wind_enabled);
   vector("wind", o.wind.velocity_m_per_s);

@@ -25,14 +25,15 @@ constexpr const char* kUsage = R"(usage: cloth_bench --validate TEST [options]
 Runs one textile test of doc/VALIDATION.md and prints one JSON line on stdout (make validate runs them all).
 
   TEST                   cantilever (ASTM D1388 strip against the heavy elastica), drape (the `drape` scene:
-                         1 m square hung by two corners 0.6 m apart) or hanging (a sheet hung by its top edge:
-                         top strain against rho g H / E)
+                         1 m square hung by two corners 0.6 m apart), hanging (a sheet hung by its top edge:
+                         top strain against rho g H / E) or cusick (BS 5058: a 30 cm disc on an 18 cm
+                         support: drape coefficient and folds)
   --material NAME        a preset (cotton, denim, wool, polyester, silk; default cotton)
   --bend-model MODEL     springs or curvature (default curvature)
   --cols N               cantilever: particles along the strip's free length (default 21)
-  --side N               drape, hanging: particles per side (default 20)
-  --seconds S            drape: simulated time (default 8)
-  --positions            drape: also print the final particle positions (for pictures)
+  --side N               drape, hanging, cusick: particles per side (default 20)
+  --seconds S            drape, cusick: simulated time (default 8)
+  --positions            drape, cusick: also print the final particle positions (and cusick its triangles)
   --scenes-dir DIR       where built-in scenes live (default: the build's config/scenes)
   --help                 this text
 )";
@@ -118,6 +119,16 @@ int cantilever(const ValidateOptions& options, const core::MaterialOptions& mate
   return measured.settled ? kExitOk : kExitRunFailed;
 }
 
+/// The particles' positions as a JSON member (for pictures).
+void printPositions(const Eigen::Matrix3Xd& positions_m, std::ostringstream& out) {
+  out << ", \"positions\": [";
+  for (Eigen::Index p = 0; p < positions_m.cols(); ++p) {
+    out << (p == 0 ? "" : ", ") << "[" << number(positions_m(0, p)) << ", " << number(positions_m(1, p)) << ", "
+        << number(positions_m(2, p)) << "]";
+  }
+  out << "]";
+}
+
 /// The drape: sag of the top edge's middle below the hooks, and the depth of the folds (the cloth's span
 /// across the hooks' line, y), after `seconds`.
 int drape(const ValidateOptions& options) {
@@ -155,14 +166,7 @@ int drape(const ValidateOptions& options) {
       << ", \"lowest_m\": " << number(hook_z - end.row(2).minCoeff())
       << ", \"last_second_motion_m\": " << number((end - second_before).colwise().norm().maxCoeff())
       << ", \"unstable_frames\": " << unstable << ", \"ms_per_frame\": " << number(elapsed_ms / frames);
-  if (options.positions) {
-    out << ", \"positions\": [";
-    for (Eigen::Index p = 0; p < end.cols(); ++p) {
-      out << (p == 0 ? "" : ", ") << "[" << number(end(0, p)) << ", " << number(end(1, p)) << ", "
-          << number(end(2, p)) << "]";
-    }
-    out << "]";
-  }
+  if (options.positions) printPositions(end, out);
   out << "}";
   std::cout << out.str() << std::endl;
   return kExitOk;
@@ -197,6 +201,39 @@ int hanging(const ValidateOptions& options, const core::MaterialOptions& materia
   std::cout << "{\"test\": \"hanging\", \"material\": \"" << material.preset << "\", \"side\": " << options.side
             << ", \"top_strain\": " << number(strain) << ", \"expected\": " << number(expected)
             << ", \"error\": " << number(strain / expected - 1.0) << "}" << std::endl;
+  return kExitOk;
+}
+
+/// The Cusick drape test: drape coefficient and folds (BS 5058).
+int cusick(const ValidateOptions& options, const core::MaterialOptions& material) {
+  const core::SceneOptions scene = core::cusickScene(material, options.bend_model, options.side);
+  std::vector<std::string> errors;
+  if (!validateInto(scene, &errors)) {
+    for (const std::string& e : errors) std::cerr << "cloth_bench: " << e << "\n";
+    return kExitUsage;
+  }
+  const Clock::time_point start = Clock::now();
+  const core::CusickMeasurement measured = core::runCusick(scene, options.seconds);
+  const double elapsed_ms = msSince(start);
+  std::ostringstream out;
+  out << "{\"test\": \"cusick\", \"material\": \"" << material.preset << "\", \"bend_model\": \""
+      << core::bendModelName(options.bend_model) << "\", \"side\": " << options.side
+      << ", \"seconds\": " << number(options.seconds) << ", \"drape_coefficient\": " << number(measured.drape_coefficient)
+      << ", \"folds\": " << measured.folds << ", \"bending_length_m\": "
+      << number(std::cbrt(material.bending_rigidity_N_m / (material.areal_density_kg_per_m2 * 9.81)))
+      << ", \"projected_area_m2\": " << number(measured.projected_area_m2)
+      << ", \"last_second_motion_m\": " << number(measured.last_second_motion_m)
+      << ", \"ms_per_frame\": " << number(elapsed_ms / measured.frames);
+  if (options.positions) {
+    printPositions(measured.positions_m, out);
+    const core::ClothGrid grid = core::buildClothGrid(scene.rows, scene.cols, scene.width_m, scene.height_m,
+                                                      scene.origin_m, scene.u_axis, scene.v_axis, core::outlineMask(scene));
+    out << ", \"triangles\": [";
+    for (std::size_t t = 0; t < grid.triangles.size(); ++t) out << (t == 0 ? "" : ", ") << grid.triangles[t];
+    out << "]";
+  }
+  out << "}";
+  std::cout << out.str() << std::endl;
   return kExitOk;
 }
 
@@ -243,8 +280,9 @@ void parse(int argc, char** argv, ValidateOptions* options, std::vector<std::str
       errors->push_back("unknown flag " + flag);
     }
   }
-  if (!options->help && options->test != "cantilever" && options->test != "drape" && options->test != "hanging") {
-    errors->push_back("--validate " + options->test + ": cantilever, drape or hanging");
+  if (!options->help && options->test != "cantilever" && options->test != "drape" && options->test != "hanging" &&
+      options->test != "cusick") {
+    errors->push_back("--validate " + options->test + ": cantilever, drape, hanging or cusick");
   }
 }
 
@@ -277,6 +315,7 @@ int runValidate(int argc, char** argv, const std::string& scenes_dir) {
   try {
     if (options.test == "cantilever") return cantilever(options, material);
     if (options.test == "drape") return drape(options);
+    if (options.test == "cusick") return cusick(options, material);
     return hanging(options, material);
   } catch (const std::exception& e) {
     std::cerr << "cloth_bench: run failed: " << e.what() << "\n";

@@ -61,6 +61,14 @@ bool sameBits(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   check(sameBits(a.material.bending_rigidity_N_m, b.material.bending_rigidity_N_m), "material.bending_rigidity");
   check(sameBits(a.material.damping_s, b.material.damping_s), "material.damping");
   check(a.bend_model == b.bend_model, "bend_model");
+  // Only the fields of the outline's shape count (a polygon's file has no circle).
+  bool same_outline = a.outline.shape == b.outline.shape;
+  if (same_outline && a.outline.shape == OutlineOptions::Shape::kCircle) {
+    same_outline = sameBits(a.outline.radius_m, b.outline.radius_m) && a.outline.center_m == b.outline.center_m;
+  } else if (same_outline && a.outline.shape == OutlineOptions::Shape::kPolygon) {
+    same_outline = a.outline.vertices_m == b.outline.vertices_m;
+  }
+  check(same_outline, "outline");
   check(a.name == b.name, "name");
   check(a.rows == b.rows, "rows");
   check(a.cols == b.cols, "cols");
@@ -504,6 +512,14 @@ TEST(SceneYaml, EmitsEveryKeyOfTheSceneMapAndNothingElse) {
     for (const char* field : {"_enabled", "_stiffness", "_damping"}) material_keys.erase(std::string(kind) + field);
   }
   EXPECT_EQ(emittedKeys(denim), material_keys);
+  EXPECT_TRUE(sameOptions(denim, readBack(sceneYaml(denim))));
+  // Outlines read back exactly too.
+  denim.outline.shape = OutlineOptions::Shape::kCircle;
+  denim.outline.center_m = Eigen::Vector2d(0.5, 0.1 + 0.2);
+  denim.outline.radius_m = 0.3;
+  EXPECT_TRUE(sameOptions(denim, readBack(sceneYaml(denim))));
+  denim.outline.shape = OutlineOptions::Shape::kPolygon;
+  denim.outline.vertices_m = {{0.0, 0.0}, {1.0, 0.0}, {0.5, 1.0 / 3.0}};
   EXPECT_TRUE(sameOptions(denim, readBack(sceneYaml(denim))));
 }
 

@@ -18,7 +18,14 @@
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 
+#include <cstdint>
+#include <vector>
+
 namespace cloth_sim::core {
+
+/// Each particle's share of the area of the grid's triangles whose three corners are active (a third of
+/// each), m^2: an outline's lumped areas (`active` empty: the whole rectangle's).
+Eigen::VectorXd keptArea(int rows, int cols, double du_m, double dv_m, const std::vector<std::uint8_t>& active);
 
 class CurvatureBending {
  public:
@@ -26,7 +33,9 @@ class CurvatureBending {
 
   /// Builds Q for a rows x cols grid with spacing du_m along a row and dv_m along a column, rigidity
   /// rigidity_N_m and retardation time damping_s. Rigidity 0 leaves the term empty.
-  void build(int rows, int cols, double du_m, double dv_m, double rigidity_N_m, double damping_s);
+  /// `active` (empty: all): an outline's particles; differences reaching outside it are left out.
+  void build(int rows, int cols, double du_m, double dv_m, double rigidity_N_m, double damping_s,
+             const std::vector<std::uint8_t>& active = {});
   void clear() { hessian_.resize(0, 0); }
   bool empty() const { return hessian_.nonZeros() == 0; }
 

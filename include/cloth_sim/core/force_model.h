@@ -20,6 +20,8 @@
 
 #include <array>
 #include <cstddef>
+#include <cstdint>
+#include <vector>
 
 namespace cloth_sim::core {
 
@@ -101,6 +103,8 @@ class ClothForceModel final : public Dynamics {
   CurvatureBending curvature_;           ///< from options_, by refreshConstraints
   Eigen::VectorXd inverse_mass_per_kg_;  ///< 0 on the particles kinematics_ holds (hooked pins)
   std::array<double, kStencilFamilies.size()> rest_length_m_{};  ///< per family, from the rest grid
+  /// Per family, with an outline: 1 at the first particle of each spring whose ends are both inside.
+  std::array<std::vector<std::uint8_t>, kStencilFamilies.size()> present_;
 
   // Scratch, reused across calls (sized on first use).
   SoaField positions_, velocities_, result_, dx_;

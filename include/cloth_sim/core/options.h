@@ -85,6 +85,16 @@ std::string textLengthProblem(const std::string& field, const std::string& value
 /// The value of the `substeps` key (scene files, parameters) that asks for SceneOptions::kAutoSubsteps.
 inline constexpr const char* kAutoSubstepsName = "auto";
 
+/// A non-rectangular cloth (issue 17): the particles of the rows x cols grid inside this outline, in the
+/// cloth's own (u, v) metres (particle (r, c) sits at (c du, r dv)), with their springs and triangles.
+struct OutlineOptions {
+  enum class Shape { kNone, kCircle, kPolygon };
+  Shape shape = Shape::kNone;
+  Eigen::Vector2d center_m = Eigen::Vector2d::Zero();  ///< kCircle
+  double radius_m = 0.0;                               ///< kCircle
+  std::vector<Eigen::Vector2d> vertices_m;             ///< kPolygon, in order (either way round)
+};
+
 struct SceneOptions {
   std::string name = "hanging";
 
@@ -111,6 +121,8 @@ struct SceneOptions {
   MaterialOptions material;
   /// Bend springs (the paper) or the curvature energy (needs a material).
   BendModel bend_model = BendModel::kSprings;
+  /// The cloth's outline; none: the whole rectangle.
+  OutlineOptions outline;
   bool wind_enabled = false;
   WindOptions wind;
 
@@ -185,9 +197,14 @@ double airDampingPerParticle_N_s_per_m(const SceneOptions& options);
 /// triangles' area over kPaperTriangleArea_m2.
 double paperWindCoefficientPerTriangle_N_s_per_m(const SceneOptions& options);
 
+/// Which particles the outline keeps (1) and removes (0), one per particle; empty without an outline. A
+/// particle on the outline counts as inside (to 1e-9 of the spacing).
+std::vector<std::uint8_t> outlineMask(const SceneOptions& options);
+
 /// The curvature bending term of these options: built when bend_model is curvature and there is a
 /// material, cleared otherwise.
-void buildCurvatureBending(const SceneOptions& options, CurvatureBending* curvature);
+void buildCurvatureBending(const SceneOptions& options, CurvatureBending* curvature,
+                           const std::vector<std::uint8_t>& active = {});
 
 /// Every problem with the options, each naming the field, its value and the allowed range, e.g.
 /// "substeps = 0: must be in [1, 10000]". Empty when the options are valid.

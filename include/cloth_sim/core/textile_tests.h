@@ -48,4 +48,32 @@ struct CantileverMeasurement {
 /// Runs a cantileverScene until its tip settles (at most max_frames).
 CantileverMeasurement runCantilever(const SceneOptions& scene, int max_frames);
 
+/// BS 5058 (Cusick): a disc of fabric 30 cm across clamped on a support disc 18 cm across, horizontal.
+inline constexpr double kCusickSpecimenDiameter_m = 0.30;
+inline constexpr double kCusickSupportDiameter_m = 0.18;
+
+/// The Cusick specimen: a side x side grid over the disc's square, its circle as the outline, every
+/// particle over the support pinned (the clamp), at z = 1 m with gravity -z, no floor.
+SceneOptions cusickScene(const MaterialOptions& material, BendModel bend_model, int side);
+
+struct CusickMeasurement {
+  double projected_area_m2 = 0.0;   ///< the draped specimen's shadow from above (S)
+  double drape_coefficient = 0.0;   ///< (S - S_support) / (S_specimen - S_support)
+  int folds = 0;                    ///< crests of the hem around the support
+  int frames = 0;
+  double last_second_motion_m = 0.0;  ///< the most any particle moved in the last simulated second
+  Eigen::Matrix3Xd positions_m;       ///< at the end
+};
+/// Runs a cusickScene for `seconds` and measures it.
+CusickMeasurement runCusick(const SceneOptions& scene, double seconds);
+
+/// The area of the union of the triangles' projections on the world xy plane, m^2, counted on a raster
+/// of pixel_m squares (each pixel whose centre a projected triangle covers).
+double projectedArea_m2(const std::vector<int>& triangles, const Eigen::Matrix3Xd& positions_m, double pixel_m);
+
+/// The folds of a draped disc: the hem (the particles inside the outline next to one outside) as its
+/// distance from centre_m in the xy plane against the angle round it, and the wave number (2 to 16) whose
+/// amplitude grew most over the flat specimen's; 0 when none grew by a tenth of a grid spacing.
+int countFolds(const ClothGrid& grid, const Eigen::Matrix3Xd& positions_m, const Eigen::Vector2d& centre_m);
+
 }  // namespace cloth_sim::core
