@@ -6,6 +6,7 @@
 #include "cloth_sim/core/material.h"
 #include "cloth_sim/core/simulation.h"
 #include "cloth_sim/core/textile_tests.h"
+#include "scene_test_util.h"
 #include "cloth_sim/io/scene_file.h"
 
 #include <gtest/gtest.h>
@@ -15,11 +16,7 @@
 namespace cloth_sim::core {
 namespace {
 
-MaterialOptions preset(const std::string& name) {
-  MaterialOptions material;
-  EXPECT_TRUE(findMaterialPreset(name, &material)) << name;
-  return material;
-}
+using test::preset;
 
 /// A flat material sheet in the xy plane, no gravity, nothing pinned.
 SceneOptions sheet(const MaterialOptions& material, int side, BendModel bend_model = BendModel::kSprings) {

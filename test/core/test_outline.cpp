@@ -4,6 +4,7 @@
 #include "cloth_sim/core/mesh_check.h"
 #include "cloth_sim/core/simulation.h"
 #include "cloth_sim/core/textile_tests.h"
+#include "scene_test_util.h"
 
 #include <gtest/gtest.h>
 
@@ -12,11 +13,7 @@
 namespace cloth_sim::core {
 namespace {
 
-MaterialOptions preset(const std::string& name) {
-  MaterialOptions material;
-  EXPECT_TRUE(findMaterialPreset(name, &material)) << name;
-  return material;
-}
+using test::preset;
 
 SceneOptions disc(int side, bool material) {
   SceneOptions scene;
