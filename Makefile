@@ -21,6 +21,10 @@
 #                and ball at 20-80 per side, stability maps and each scene's terms (scripts/accuracy.py, about
 #                25 minutes): writes doc/ACCURACY.md and doc/images/accuracy_*.png, raw outputs in .build/accuracy
 #                (make accuracy ACCURACY_ARGS=--reuse rewrites the page from them without running again)
+#   make validate  build, then run the textile tests of issue 17 (cantilever against the heavy elastica, the
+#                drape per preset and resolution, the hanging sheet's strain; scripts/validate.py, about 15
+#                minutes): writes doc/VALIDATION.md and doc/images/validation_*.png, raw outputs in
+#                .build/validate (make validate VALIDATE_ARGS=--reuse rewrites the page without running again)
 #   make pictures  record every scene (or SCENES="flag ball") and render it in rviz under Xvfb into
 #                doc/images/rviz_<scene>.png, plus the demo's picture as doc/images/demo_drape.png
 #   make fuzz    build the libFuzzer targets of test/fuzz with clang (outside catkin) and run each for
@@ -37,7 +41,7 @@
 SHELL := /bin/bash
 .SHELLFLAGS := -eu -o pipefail -c
 .DEFAULT_GOAL := build
-.PHONY: deps build test demo bench accuracy load pictures clean help fuzz sanitize sanitize-run rates
+.PHONY: deps build test demo bench accuracy validate load pictures clean help fuzz sanitize sanitize-run rates
 
 # Debian 12's own ROS 1 packages (no /opt/ros); this is the one list of what the project needs.
 DEB_PACKAGES := build-essential cmake pkg-config \
@@ -164,6 +168,10 @@ ACCURACY_ARGS ?=
 accuracy: build
 	@/usr/bin/python3 $(REPO)/scripts/accuracy.py --bench $(WS)/devel/lib/cloth_sim/cloth_bench --repo $(REPO) \
 	  $(ACCURACY_ARGS)
+
+validate: build
+	@/usr/bin/python3 $(REPO)/scripts/validate.py --bench $(WS)/devel/lib/cloth_sim/cloth_bench --repo $(REPO) \
+	  $(VALIDATE_ARGS)
 
 pictures: demo
 	@$(MAKE) --no-print-directory deps DEB_PACKAGES="$(PICTURE_PACKAGES)"

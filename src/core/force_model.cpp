@@ -53,6 +53,14 @@ ClothForceModel::ClothForceModel(const ClothGrid& grid, const SceneOptions& opti
     const bool exists = layout.dr < grid_.rows && std::max(0, layout.dc) < grid_.cols;
     rest_length_m_[f] =
         exists ? (grid_.rest_positions_m.col(second) - grid_.rest_positions_m.col(first)).norm() : 0.0;
+    if (grid_.hasOutline()) {  // a spring exists where both its ends are inside the outline
+      present_[f].assign(static_cast<std::size_t>(grid_.particleCount()), 0);
+      const int offset = kStencilFamilies[f].dr * grid_.cols + kStencilFamilies[f].dc;
+      for (int p = 0; p < grid_.particleCount(); ++p) {
+        const int q = p + offset;
+        if (q >= 0 && q < grid_.particleCount() && grid_.isActive(p) && grid_.isActive(q)) present_[f][p] = 1;
+      }
+    }
   }
   refreshConstraints();
 }
@@ -65,7 +73,8 @@ ClothForceModel::ActiveFamilies ClothForceModel::activeFamilies() const {
     const SpringOptions& spring = options_.springs[kStencilFamilies[f].kind];
     if (!spring.enabled || (spring.stiffness_N_per_m == 0.0 && spring.damping_N_s_per_m == 0.0)) continue;
     active.family[active.count++] = {kStencilFamilies[f].dr, kStencilFamilies[f].dc, rest_length_m_[f],
-                                     spring.stiffness_N_per_m, spring.damping_N_s_per_m};
+                                     spring.stiffness_N_per_m, spring.damping_N_s_per_m,
+                                     grid_.hasOutline() ? present_[f].data() : nullptr};
   }
   return active;
 }
@@ -84,7 +93,12 @@ double* ClothForceModel::threadRowScratch() {
 
 void ClothForceModel::refreshConstraints() {
   kinematics_.setScene(options_, inputs_);
+  buildCurvatureBending(options_, &curvature_, grid_.active);
   inverse_mass_per_kg_ = mass_kg_.cwiseInverse();
+  // Outside an outline a particle never moves: held where it started, like a pin nobody moves.
+  for (int p = 0; p < grid_.particleCount(); ++p) {
+    if (!grid_.isActive(p)) inverse_mass_per_kg_[p] = 0.0;
+  }
   kinematics_.maskConstrained(inverse_mass_per_kg_);
 }
 
@@ -122,12 +136,15 @@ void ClothForceModel::forces(const Eigen::Matrix3Xd& positions_m, const Eigen::M
                                   constView(velocities_), view(result_), threadRowScratch(), band.begin, band.end);
   }
   forces_N = result_.transpose();
+  curvature_.addForces(positions_m, velocities_m_per_s, forces_N);
   const SceneOptions& o = options_;
   if (!o.gravity_m_per_s2.isZero()) accumulateGravity(mass_kg_, o.gravity_m_per_s2, forces_N);
-  if (o.air_damping_N_s_per_m > 0.0) accumulateAirDamping(o.air_damping_N_s_per_m, velocities_m_per_s, forces_N);
+  const double air_damping_N_s_per_m = airDampingPerParticle_N_s_per_m(o);
+  if (air_damping_N_s_per_m > 0.0) accumulateAirDamping(air_damping_N_s_per_m, velocities_m_per_s, forces_N);
   if (o.wind_enabled) {
     WindOptions wind = o.wind;
     wind.velocity_m_per_s = inputs_.wind_m_per_s;
+    wind.paper_coefficient_N_s_per_m = paperWindCoefficientPerTriangle_N_s_per_m(o);
     accumulateWindForces(grid_.triangles, wind, windVelocityAt(wind, time_s), positions_m, velocities_m_per_s,
                          forces_N);
   }
@@ -179,7 +196,8 @@ void ClothForceModel::forceDifferential(const Eigen::Matrix3Xd& dx_m, const Eige
   dx_ = dv_m_per_s.transpose();
   addSpringDifferential(dx_, 0.0, 1.0, result_);
   df_N = result_.transpose();
-  df_N -= options_.air_damping_N_s_per_m * dv_m_per_s;
+  curvature_.addDifferential(dx_m, dv_m_per_s, 1.0, 1.0, df_N);
+  df_N -= airDampingPerParticle_N_s_per_m(options_) * dv_m_per_s;
   for (const Grasp& grasp : inputs_.grasps) {
     df_N.col(grasp.particle) -=
         grasp.stiffness_N_per_m * dx_m.col(grasp.particle) + grasp.damping_N_s_per_m * dv_m_per_s.col(grasp.particle);
@@ -191,6 +209,7 @@ void ClothForceModel::stiffnessProduct(const Eigen::Matrix3Xd& dx_m, Eigen::Matr
   dx_ = dx_m.transpose();
   addSpringDifferential(dx_, 1.0, 0.0, result_);
   df_N = result_.transpose();
+  curvature_.addDifferential(dx_m, dx_m, 1.0, 0.0, df_N);
   for (const Grasp& grasp : inputs_.grasps) df_N.col(grasp.particle) -= grasp.stiffness_N_per_m * dx_m.col(grasp.particle);
 }
 
@@ -200,8 +219,10 @@ void ClothForceModel::systemProduct(double step_s, const Eigen::Matrix3Xd& w, Ei
   result_.setZero(w.cols(), 3);
   addSpringDifferential(dx_, h * h, h, result_);
   // (M + h c_air) w - springs' dF; the grasps' springs and dampers join on their particles' diagonal.
-  out = w * (mass_kg_.array() + h * options_.air_damping_N_s_per_m).matrix().asDiagonal();
+  out = w * (mass_kg_.array() + h * airDampingPerParticle_N_s_per_m(options_)).matrix().asDiagonal();
   out -= result_.transpose();
+  // The curvature term's differential is -Q (dx + beta dv): with dx = h^2 w and dv = h w it adds.
+  curvature_.addDifferential(w, w, -h * h, -h, out);
   for (const Grasp& grasp : inputs_.grasps) {
     out.col(grasp.particle) += (h * h * grasp.stiffness_N_per_m + h * grasp.damping_N_s_per_m) * w.col(grasp.particle);
   }
@@ -224,7 +245,11 @@ void ClothForceModel::systemDiagonalBlocks(double step_s, Eigen::Matrix<double, 
                             threadRowScratch(), band.begin, band.end);
   }
   blocks = block_sums_.transpose();
-  blocks.topRows<3>().rowwise() += (mass_kg_.array() + h * options_.air_damping_N_s_per_m).matrix().transpose();
+  blocks.topRows<3>().rowwise() += (mass_kg_.array() + h * airDampingPerParticle_N_s_per_m(options_)).matrix().transpose();
+  if (!curvature_.empty()) {
+    const Eigen::VectorXd diagonal = curvature_.hessian().diagonal() * (h * h + h * curvature_.damping_s());
+    blocks.topRows<3>().rowwise() += diagonal.transpose();
+  }
   for (const Grasp& grasp : inputs_.grasps) {
     blocks.col(grasp.particle).head<3>().array() += h * h * grasp.stiffness_N_per_m + h * grasp.damping_N_s_per_m;
   }
@@ -275,7 +300,25 @@ bool ClothForceModel::systemGridMatrix(double step_s, GridBlockMatrix& matrix) {
       }
     });
   }
+  addCurvatureBlocks(h, matrix);
   return true;
+}
+
+void ClothForceModel::addCurvatureBlocks(double step_s, GridBlockMatrix& matrix) const {
+  if (curvature_.empty()) return;
+  // Q couples the coordinates only with themselves: (h^2 + h beta) Q_ij on the xx, yy and zz entries.
+  const double scale = step_s * step_s + step_s * curvature_.damping_s();
+  const int cols = grid_.cols;
+  const CurvatureBending::Hessian& q = curvature_.hessian();
+  for (int row = 0; row < q.outerSize(); ++row) {
+    for (CurvatureBending::Hessian::InnerIterator it(q, row); it; ++it) {
+      const int column = static_cast<int>(it.col());
+      if (column == row) continue;  // in systemDiagonalBlocks
+      const int offset = matrix.offsetIndex(column / cols - row / cols, column % cols - row % cols);
+      double* block = matrix.block(row, offset);
+      for (int e = 0; e < 3; ++e) block[e] += scale * it.value();
+    }
+  }
 }
 
 }  // namespace cloth_sim::core

@@ -27,12 +27,17 @@ void addSpring(const Eigen::Matrix3Xd& rest_m, int first, int second, SpringSet&
 }  // namespace
 
 ClothGrid buildClothGrid(int rows, int cols, double width_m, double height_m, const Eigen::Vector3d& origin_m,
-                         const Eigen::Vector3d& u_axis, const Eigen::Vector3d& v_axis) {
+                         const Eigen::Vector3d& u_axis, const Eigen::Vector3d& v_axis,
+                         const std::vector<std::uint8_t>& active) {
   if (rows < 2 || cols < 2) throw std::invalid_argument("a cloth grid needs at least 2 x 2 particles");
   ClothGrid grid;
   grid.rows = rows;
   grid.cols = cols;
   const int count = rows * cols;
+  if (!active.empty() && static_cast<int>(active.size()) != count) {
+    throw std::invalid_argument("the active mask needs one entry per particle");
+  }
+  grid.active = active;
   const double du_m = width_m / (cols - 1);
   const double dv_m = height_m / (rows - 1);
   grid.rest_positions_m.resize(3, count);
@@ -48,22 +53,30 @@ ClothGrid buildClothGrid(int rows, int cols, double width_m, double height_m, co
   SpringSet& structural = grid.springs[static_cast<int>(SpringKind::kStructural)];
   SpringSet& shear = grid.springs[static_cast<int>(SpringKind::kShear)];
   SpringSet& bend = grid.springs[static_cast<int>(SpringKind::kBend)];
+  // Outside an outline a particle has no springs and no triangles.
+  const auto spring = [&](int first, int second, SpringSet& set) {
+    if (grid.isActive(first) && grid.isActive(second)) addSpring(rest, first, second, set);
+  };
+  const auto triangle = [&](int a, int b, int c) {
+    if (grid.isActive(a) && grid.isActive(b) && grid.isActive(c)) grid.triangles.insert(grid.triangles.end(), {a, b, c});
+  };
   for (int r = 0; r < rows; ++r) {
     for (int c = 0; c < cols; ++c) {
       const int i = grid.index(r, c);
-      if (c + 1 < cols) addSpring(rest, i, grid.index(r, c + 1), structural);
-      if (r + 1 < rows) addSpring(rest, i, grid.index(r + 1, c), structural);
+      if (c + 1 < cols) spring(i, grid.index(r, c + 1), structural);
+      if (r + 1 < rows) spring(i, grid.index(r + 1, c), structural);
       if (r + 1 < rows && c + 1 < cols) {
-        addSpring(rest, i, grid.index(r + 1, c + 1), shear);
-        addSpring(rest, grid.index(r, c + 1), grid.index(r + 1, c), shear);
+        spring(i, grid.index(r + 1, c + 1), shear);
+        spring(grid.index(r, c + 1), grid.index(r + 1, c), shear);
         // Two triangles per quad, counter-clockwise seen from u x v.
         const int right = grid.index(r, c + 1);
         const int below = grid.index(r + 1, c);
         const int diagonal = grid.index(r + 1, c + 1);
-        grid.triangles.insert(grid.triangles.end(), {i, right, diagonal, i, diagonal, below});
+        triangle(i, right, diagonal);
+        triangle(i, diagonal, below);
       }
-      if (c + 2 < cols) addSpring(rest, i, grid.index(r, c + 2), bend);
-      if (r + 2 < rows) addSpring(rest, i, grid.index(r + 2, c), bend);
+      if (c + 2 < cols) spring(i, grid.index(r, c + 2), bend);
+      if (r + 2 < rows) spring(i, grid.index(r + 2, c), bend);
     }
   }
   return grid;

@@ -57,6 +57,7 @@ class Problems {
   }
 
   void fail(const std::string& message) { list_.push_back(message); }
+  std::size_t size() const { return list_.size(); }
   std::vector<std::string> take() { return std::move(list_); }
 
  private:
@@ -132,6 +133,55 @@ void validateCameras(const std::vector<CameraOptions>& cameras, Problems& proble
   }
 }
 
+/// Most corners an outline polygon may have.
+constexpr std::size_t kMaxOutlineVertices = 4096;
+
+/// The outline's shape, that it keeps at least one triangle, and that no pin is outside it.
+void validateOutline(const SceneOptions& o, const std::vector<int>& pinned, Problems& problems) {
+  using L = OptionLimits;
+  const OutlineOptions& outline = o.outline;
+  if (outline.shape == OutlineOptions::Shape::kNone) return;
+  const std::size_t before = problems.size();
+  if (outline.shape == OutlineOptions::Shape::kCircle) {
+    problems.positive("outline.circle.radius", outline.radius_m, L::kMaxClothSide_m);
+    if (!outline.center_m.allFinite() || outline.center_m.cwiseAbs().maxCoeff() > L::kMaxCoordinate_m) {
+      problems.fail("outline.circle.center: must be finite and within +-1000 m");
+    }
+  } else {
+    if (outline.vertices_m.size() < 3 || outline.vertices_m.size() > kMaxOutlineVertices) {
+      problems.fail("outline.polygon: " + std::to_string(outline.vertices_m.size()) + " corners: must be 3 to " +
+                    std::to_string(kMaxOutlineVertices));
+    }
+    for (const Eigen::Vector2d& corner : outline.vertices_m) {
+      if (corner.allFinite() && corner.cwiseAbs().maxCoeff() <= L::kMaxCoordinate_m) continue;
+      problems.fail("outline.polygon: every corner must be finite and within +-1000 m");
+      break;
+    }
+  }
+  const bool grid_valid = o.rows >= L::kMinGridSide && o.rows <= L::kMaxGridSide && o.cols >= L::kMinGridSide &&
+                          o.cols <= L::kMaxGridSide && std::isfinite(o.width_m) && o.width_m > 0.0 &&
+                          std::isfinite(o.height_m) && o.height_m > 0.0;
+  if (problems.size() != before || !grid_valid) return;
+  const std::vector<std::uint8_t> mask = outlineMask(o);
+  bool any_triangle = false;
+  for (int r = 0; r + 1 < o.rows && !any_triangle; ++r) {
+    for (int c = 0; c + 1 < o.cols && !any_triangle; ++c) {
+      const int p = r * o.cols + c;
+      any_triangle = mask[p] && mask[p + 1] && mask[p + o.cols + 1];
+    }
+  }
+  if (!any_triangle) {
+    problems.fail("outline: keeps no triangle of the " + std::to_string(o.rows) + " x " + std::to_string(o.cols) +
+                  " grid (it is in the cloth's own (u, v) metres, from particle (0, 0))");
+  }
+  for (const int pin : pinned) {
+    if (pin < static_cast<int>(mask.size()) && mask[pin] == 0) {
+      problems.fail("pins: particle " + std::to_string(pin) + " is outside the outline");
+      break;
+    }
+  }
+}
+
 }  // namespace
 
 std::string textLengthProblem(const std::string& field, const std::string& value) {
@@ -167,12 +217,45 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   if (o.u_axis.allFinite() && o.v_axis.allFinite() && std::abs(o.u_axis.dot(o.v_axis)) > kUnitTolerance) {
     problems.fail("u_axis and v_axis: must be orthogonal");
   }
-  problems.inRange("mass", o.mass_kg, L::kMinMass_kg, L::kMaxMass_kg);
   problems.finiteVector("gravity", o.gravity_m_per_s2, L::kMaxAcceleration_m_per_s2);
-  for (int k = 0; k < kSpringKindCount; ++k) {
-    const std::string kind = springKindName(static_cast<SpringKind>(k));
-    problems.inRange(kind + "_stiffness", o.springs[k].stiffness_N_per_m, 0.0, L::kMaxStiffnessN_per_m);
-    problems.inRange(kind + "_damping", o.springs[k].damping_N_s_per_m, 0.0, L::kMaxDampingN_s_per_m);
+  if (o.bend_model == BendModel::kCurvature && !o.has_material) {
+    problems.fail("bend_model = curvature: needs a material (its bending_rigidity): give `material`, or use "
+                  "bend_model = springs");
+  }
+  // With a material, mass and springs are derived for this grid: their limits are checked on what it
+  // gives, and named as its.
+  bool constants_known = true;
+  std::string derived_prefix;
+  SceneOptions resolved;
+  if (o.has_material) {
+    const std::vector<std::string> material_problems = validateMaterial(o.material);
+    for (const std::string& problem : material_problems) problems.fail(problem);
+    const bool grid_valid = o.rows >= L::kMinGridSide && o.cols >= L::kMinGridSide && std::isfinite(o.width_m) &&
+                            o.width_m > 0.0 && std::isfinite(o.height_m) && o.height_m > 0.0 &&
+                            o.gravity_m_per_s2.allFinite();
+    constants_known = material_problems.empty() && grid_valid;
+    if (constants_known) resolved = resolveMaterial(o);
+    derived_prefix = "material gives ";
+  }
+  const SceneOptions& constants = o.has_material ? resolved : o;
+  const double structural_N_per_m = constants.springs[static_cast<int>(SpringKind::kStructural)].stiffness_N_per_m;
+  if (o.has_material && constants_known && o.bend_model == BendModel::kSprings && structural_N_per_m < 0.0) {
+    // The bend springs that give B at this spacing grow as 1 / h^4 and carry tension too (4 k_b): on a
+    // fine enough grid they alone are stiffer in tension than the fabric.
+    std::ostringstream out;
+    out << "bend_model = springs: at this spacing the bend springs that give material.bending_rigidity would "
+           "carry more tension than material.stretch_modulus (structural springs of "
+        << structural_N_per_m << " N/m); use bend_model = curvature, or fewer particles";
+    problems.fail(out.str());
+    constants_known = false;
+  }
+  if (constants_known) {
+    problems.inRange(derived_prefix + "mass", constants.mass_kg, L::kMinMass_kg, L::kMaxMass_kg);
+    for (int k = 0; k < kSpringKindCount; ++k) {
+      const std::string kind = derived_prefix + springKindName(static_cast<SpringKind>(k));
+      problems.inRange(kind + "_stiffness", constants.springs[k].stiffness_N_per_m, 0.0, L::kMaxStiffnessN_per_m);
+      problems.inRange(kind + "_damping", constants.springs[k].damping_N_s_per_m, 0.0, L::kMaxDampingN_s_per_m);
+    }
   }
   problems.inRange("air_damping", o.air_damping_N_s_per_m, 0.0, L::kMaxDampingN_s_per_m);
   problems.finiteVector("wind", o.wind.velocity_m_per_s, L::kMaxWindSpeed_m_per_s);
@@ -191,6 +274,7 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   std::string pin_error;
   const std::vector<int> pinned = resolvePins(o.pins, std::max(o.rows, 2), std::max(o.cols, 2), &pin_error);
   if (!pin_error.empty()) problems.fail(pin_error);
+  validateOutline(o, pinned, problems);
   problems.finiteVector("pin_motion_amplitude", o.pin_motion_amplitude_m, L::kMaxCoordinate_m);
   if (!o.pin_positions_m.empty() && pin_error.empty() && o.pin_positions_m.size() != pinned.size()) {
     problems.fail("pin_positions: " + std::to_string(o.pin_positions_m.size()) + " positions for " +
@@ -276,6 +360,84 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   problems.inRange("frame_rate", o.frame_rate_hz, L::kMinFrameRateHz, L::kMaxFrameRateHz);
   validateCameras(o.cameras, problems);
   return problems.take();
+}
+
+SceneOptions resolveMaterial(const SceneOptions& options) {
+  if (!options.has_material) return options;
+  SceneOptions resolved = options;
+  const MaterialConstants constants =
+      materialConstants(options.material, options.bend_model, options.rows, options.cols, options.width_m,
+                        options.height_m, options.gravity_m_per_s2.norm());
+  resolved.mass_kg = constants.mass_kg;
+  if (options.outline.shape != OutlineOptions::Shape::kNone) {  // the area the outline keeps
+    resolved.mass_kg = options.material.areal_density_kg_per_m2 *
+                       keptArea(options.rows, options.cols, options.width_m / (options.cols - 1),
+                                options.height_m / (options.rows - 1), outlineMask(options))
+                           .sum();
+  }
+  resolved.springs = constants.springs;
+  return resolved;
+}
+
+void buildCurvatureBending(const SceneOptions& o, CurvatureBending* curvature, const std::vector<std::uint8_t>& active) {
+  if (!o.has_material || o.bend_model != BendModel::kCurvature) {
+    curvature->clear();
+    return;
+  }
+  curvature->build(o.rows, o.cols, o.width_m / (o.cols - 1), o.height_m / (o.rows - 1),
+                   o.material.bending_rigidity_N_m, o.material.damping_s, active);
+}
+
+namespace {
+
+/// Even-odd rule; a point within `tolerance` of an edge counts as inside.
+bool insidePolygon(const std::vector<Eigen::Vector2d>& polygon, const Eigen::Vector2d& point, double tolerance) {
+  bool inside = false;
+  for (std::size_t i = 0, j = polygon.size() - 1; i < polygon.size(); j = i++) {
+    const Eigen::Vector2d& a = polygon[i];
+    const Eigen::Vector2d& b = polygon[j];
+    const Eigen::Vector2d edge = b - a;
+    const double t = std::clamp((point - a).dot(edge) / std::max(edge.squaredNorm(), 1e-300), 0.0, 1.0);
+    if ((a + t * edge - point).norm() <= tolerance) return true;
+    if ((a.y() > point.y()) != (b.y() > point.y()) &&
+        point.x() < (b.x() - a.x()) * (point.y() - a.y()) / (b.y() - a.y()) + a.x()) {
+      inside = !inside;
+    }
+  }
+  return inside;
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> outlineMask(const SceneOptions& o) {
+  if (o.outline.shape == OutlineOptions::Shape::kNone) return {};
+  constexpr double kOnTheLine = 1e-9;  // of the spacing: a particle on the outline is inside
+  const double du_m = o.width_m / (o.cols - 1);
+  const double dv_m = o.height_m / (o.rows - 1);
+  const double tolerance_m = kOnTheLine * std::min(du_m, dv_m);
+  std::vector<std::uint8_t> mask(static_cast<std::size_t>(o.rows) * o.cols, 0);
+  for (int r = 0; r < o.rows; ++r) {
+    for (int c = 0; c < o.cols; ++c) {
+      const Eigen::Vector2d uv(c * du_m, r * dv_m);
+      const bool inside = o.outline.shape == OutlineOptions::Shape::kCircle
+                              ? (uv - o.outline.center_m).norm() <= o.outline.radius_m + tolerance_m
+                              : insidePolygon(o.outline.vertices_m, uv, tolerance_m);
+      mask[static_cast<std::size_t>(r) * o.cols + c] = inside ? 1 : 0;
+    }
+  }
+  return mask;
+}
+
+double airDampingPerParticle_N_s_per_m(const SceneOptions& o) {
+  if (!o.has_material) return o.air_damping_N_s_per_m;
+  const double particle_area_m2 = o.width_m * o.height_m / (static_cast<double>(o.rows) * o.cols);
+  return o.air_damping_N_s_per_m * particle_area_m2 / kPaperParticleArea_m2;
+}
+
+double paperWindCoefficientPerTriangle_N_s_per_m(const SceneOptions& o) {
+  if (!o.has_material) return o.wind.paper_coefficient_N_s_per_m;
+  const double triangle_area_m2 = o.width_m * o.height_m / (2.0 * (o.rows - 1) * (o.cols - 1));
+  return o.wind.paper_coefficient_N_s_per_m * triangle_area_m2 / kPaperTriangleArea_m2;
 }
 
 std::vector<int> resolvePins(const std::vector<std::string>& selectors, int rows, int cols, std::string* error) {

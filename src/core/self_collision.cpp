@@ -122,7 +122,8 @@ SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfColli
   const auto apart = [&](int i, int j) {
     const double dr = row_of_[static_cast<std::size_t>(j)] - row_of_[static_cast<std::size_t>(i)];
     const double dc = col_of_[static_cast<std::size_t>(j)] - col_of_[static_cast<std::size_t>(i)];
-    return dr * dr * dv_squared + dc * dc * du_squared > exempt_squared;
+    // Particles outside an outline are not cloth: they meet nothing.
+    return dr * dr * dv_squared + dc * dc * du_squared > exempt_squared && grid.isActive(i) && grid.isActive(j);
   };
   const auto keep = [&](int i, int j) {
     return apart(i, j) && (inverse_mass_per_kg[i] > 0.0 || inverse_mass_per_kg[j] > 0.0);

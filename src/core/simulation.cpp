@@ -18,7 +18,48 @@ bool sameGrid(const SceneOptions& a, const SceneOptions& b) {
   return a.rows == b.rows && a.cols == b.cols && a.width_m == b.width_m && a.height_m == b.height_m &&
          a.origin_m == b.origin_m && a.u_axis == b.u_axis && a.v_axis == b.v_axis && a.pins == b.pins &&
          a.pin_positions_m == b.pin_positions_m && a.pin_travel_time_s == b.pin_travel_time_s &&
-         a.mass_kg == b.mass_kg;
+         a.mass_kg == b.mass_kg && a.has_material == b.has_material && outlineMask(a) == outlineMask(b);
+}
+
+/// Empty when `given` leaves the constants its material sets as the material sets them (a retune passes
+/// back what options() gave, material constants included); else which one it changed.
+std::string materialConstantChanged(const SceneOptions& given, const SceneOptions& resolved) {
+  if (!given.has_material) return "";
+  for (int k = 0; k < kSpringKindCount; ++k) {
+    const SpringOptions& a = given.springs[k];
+    const SpringOptions& b = resolved.springs[k];
+    if (a.enabled != b.enabled || a.stiffness_N_per_m != b.stiffness_N_per_m ||
+        a.damping_N_s_per_m != b.damping_N_s_per_m) {
+      return std::string(springKindName(static_cast<SpringKind>(k))) +
+             " springs: set by the material in this scene (change the material instead: load a scene)";
+    }
+  }
+  return "";
+}
+
+/// Particle masses: equal shares (the paper), or by area for a material (material.h); inside an outline
+/// only, each particle outside it keeping the mean mass of those inside (it never moves, and no bound or
+/// ratio then divides by zero).
+Eigen::VectorXd particleMasses(const SceneOptions& options, const ClothGrid& grid) {
+  const int count = grid.particleCount();
+  if (!grid.hasOutline()) {
+    if (options.has_material) return areaLumpedMasses(options.rows, options.cols, options.mass_kg);
+    return Eigen::VectorXd::Constant(count, options.mass_kg / count);
+  }
+  Eigen::VectorXd mass(count);
+  const int inside = static_cast<int>(std::count(grid.active.begin(), grid.active.end(), 1));
+  if (options.has_material) {
+    const Eigen::VectorXd area = keptArea(grid.rows, grid.cols, options.width_m / (grid.cols - 1),
+                                          options.height_m / (grid.rows - 1), grid.active);
+    mass = area * (options.mass_kg / area.sum());
+  } else {
+    mass.setConstant(options.mass_kg / inside);
+  }
+  const double outside_kg = options.mass_kg / inside;
+  for (int p = 0; p < count; ++p) {
+    if (!grid.isActive(p)) mass[p] = outside_kg;
+  }
+  return mass;
 }
 
 /// The options if they are valid; throws std::invalid_argument with the first problem otherwise.
@@ -31,10 +72,10 @@ const SceneOptions& validated(const SceneOptions& options) {
 }  // namespace
 
 Simulation::Simulation(const SceneOptions& options)
-    : options_(validated(options)),
+    : options_(resolveMaterial(validated(options))),
       grid_(buildClothGrid(options.rows, options.cols, options.width_m, options.height_m, options.origin_m,
-                           options.u_axis, options.v_axis)),
-      mass_kg_(Eigen::VectorXd::Constant(grid_.particleCount(), options.mass_kg / grid_.particleCount())),
+                           options.u_axis, options.v_axis, outlineMask(options))),
+      mass_kg_(particleMasses(options_, grid_)),
       force_model_(grid_, options_, mass_kg_, inputs_) {
   colors_ = checkerColors(grid_.uv);
   integrator_ = makeIntegrator(options.integrator, options.solver);
@@ -308,7 +349,13 @@ bool Simulation::recover(const FrameEnvelope& envelope, FrameReport* report) {
   return true;
 }
 
-bool Simulation::retune(const SceneOptions& options, std::string* error) {
+bool Simulation::retune(const SceneOptions& given, std::string* error) {
+  const SceneOptions options = resolveMaterial(given);
+  const std::string changed = materialConstantChanged(given, options);
+  if (!changed.empty()) {
+    *error = changed;
+    return false;
+  }
   if (!sameGrid(options, options_)) {
     *error = "rows, cols, size, pose, pins and mass cannot change while running: load a scene instead";
     return false;
@@ -357,6 +404,10 @@ bool Simulation::grab(const GraspRequest& request, std::string* error) {
   }
   if (request.particle < -1 || request.particle >= count) {
     *error = "grasp particle " + std::to_string(request.particle) + " is outside [-1, " + std::to_string(count - 1) + "]";
+    return false;
+  }
+  if (request.particle >= 0 && !grid_.isActive(request.particle)) {
+    *error = "grasp particle " + std::to_string(request.particle) + " is outside the cloth's outline";
     return false;
   }
   const double stiffness =
@@ -425,6 +476,8 @@ bool Simulation::attachGripper(const GripperRequest& request, std::vector<int>* 
       return false;
     }
     particles = particlesWithin(state_.positions_m, pose.position_m, request.radius_m);
+    particles.erase(std::remove_if(particles.begin(), particles.end(), [&](int p) { return !grid_.isActive(p); }),
+                    particles.end());  // outside the outline: not cloth
     if (particles.empty()) {
       const int nearest = nearestParticle(pose.position_m);
       *error = "radius " + std::to_string(request.radius_m) + " m around '" + request.frame +
@@ -442,6 +495,10 @@ bool Simulation::attachGripper(const GripperRequest& request, std::vector<int>* 
     if (std::find(particles.begin(), particles.begin() + static_cast<std::ptrdiff_t>(k), particle) !=
         particles.begin() + static_cast<std::ptrdiff_t>(k)) {
       *error = "particle " + std::to_string(particle) + " is listed twice";
+      return false;
+    }
+    if (!grid_.isActive(particle)) {
+      *error = "particle " + std::to_string(particle) + " is outside the cloth's outline";
       return false;
     }
     if (std::binary_search(inputs_.pins.begin(), inputs_.pins.end(), particle)) {
@@ -605,6 +662,7 @@ int Simulation::nearestParticle(const Eigen::Vector3d& point_m) const {
   int nearest = 0;
   double best_m2 = std::numeric_limits<double>::infinity();
   for (int i = 0; i < state_.particleCount(); ++i) {
+    if (!grid_.isActive(i)) continue;  // outside the outline: not part of the cloth
     const double d2 = (state_.positions_m.col(i) - point_m).squaredNorm();
     if (d2 < best_m2) {
       best_m2 = d2;
@@ -635,6 +693,7 @@ EnergyReport Simulation::energies() const {
     if (!options_.springs[k].enabled) continue;
     report.elastic_J += springPotentialEnergy(grid_.springs[k], options_.springs[k], state_.positions_m);
   }
+  report.elastic_J += force_model_.bendingEnergy_J(state_.positions_m);
   report.potential_J += report.elastic_J;
   return report;
 }
@@ -782,7 +841,8 @@ std::string checkInputs(const ClothInputs& inputs, const std::vector<int>& pins,
 SimulationSnapshot Simulation::snapshot() const { return SimulationSnapshot{options_, state_, inputs_, memory_}; }
 
 bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error) {
-  const SceneOptions& options = snapshot.options;
+  // A state file holds a material, not the constants it gives: they are derived again here.
+  const SceneOptions options = resolveMaterial(snapshot.options);
   if (!sameGrid(options, options_)) {
     *error = "the snapshot's grid (rows, cols, size, pose, pins or mass) differs from this scene's (" +
              std::to_string(options_.rows) + "x" + std::to_string(options_.cols) + ")";

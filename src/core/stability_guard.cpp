@@ -93,6 +93,13 @@ StiffnessBound estimateStiffnessBound(const SceneOptions& options, const ClothGr
     stiffness_sum[grasp.particle] += grasp.stiffness_N_per_m;
     damping_sum[grasp.particle] += grasp.damping_N_s_per_m;
   }
+  CurvatureBending curvature;
+  buildCurvatureBending(options, &curvature, grid.active);
+  if (!curvature.empty()) {  // its rows' absolute sums are their Gershgorin radii plus the diagonal
+    const Eigen::VectorXd sums = curvature.rowAbsSums();
+    stiffness_sum += sums;
+    damping_sum += curvature.damping_s() * sums;
+  }
   double kappa_max = 0.0;
   double gamma_max = 0.0;
   double smallest_mass_kg = std::numeric_limits<double>::infinity();
@@ -101,7 +108,7 @@ StiffnessBound estimateStiffnessBound(const SceneOptions& options, const ClothGr
     gamma_max = std::max(gamma_max, damping_sum[i] / mass_kg[i]);
     smallest_mass_kg = std::min(smallest_mass_kg, mass_kg[i]);
   }
-  double uniform_damping_N_s_per_m = options.air_damping_N_s_per_m;
+  double uniform_damping_N_s_per_m = airDampingPerParticle_N_s_per_m(options);
   if (options.wind_enabled && options.wind.model == WindModel::kAerodynamic) {
     const double cell_area_m2 = options.width_m / (options.cols - 1) * options.height_m / (options.rows - 1);
     const double speed_m_per_s = inputs.wind_m_per_s.norm() * (1.0 + std::abs(options.wind.gust_amplitude)) +
@@ -118,7 +125,7 @@ StiffnessBound estimateStiffnessBound(const SceneOptions& options, const ClothGr
   }
   StiffnessBound bound;
   bound.damping_per_stiffness_min_s = std::isinf(ratio_min_s) ? 0.0 : ratio_min_s;
-  bound.uniform_damping_min_per_s = options.air_damping_N_s_per_m / mass_kg.maxCoeff();
+  bound.uniform_damping_min_per_s = airDampingPerParticle_N_s_per_m(options) / mass_kg.maxCoeff();
   bound.omega_max_rad_per_s = std::sqrt(kappa_max);
   bound.damping_max_per_s = gamma_max;
   bound.uniform_damping_per_s = uniform_damping_N_s_per_m / smallest_mass_kg;
@@ -212,7 +219,7 @@ FrameEnvelope frameEnvelope(const EnvelopeInputs& scene) {
     const double relative_speed_m_per_s = wind_speed_m_per_s + cloth_speed_m_per_s;
     const double cell_area_m2 = options.width_m / (options.cols - 1) * options.height_m / (options.rows - 1);
     wind_force_N = triangles * (options.wind.model == WindModel::kPaper
-                                    ? options.wind.paper_coefficient_N_s_per_m * wind_speed_m_per_s
+                                    ? paperWindCoefficientPerTriangle_N_s_per_m(options) * wind_speed_m_per_s
                                     : 0.5 * options.wind.air_density_kg_per_m3 * options.wind.drag_coefficient *
                                           0.5 * cell_area_m2 * relative_speed_m_per_s * relative_speed_m_per_s);
   }

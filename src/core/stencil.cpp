@@ -138,6 +138,17 @@ void applyRow(int cols, int row, ColumnRange range, int offset, int row_begin, i
   }
 }
 
+/// Zeroes the values of the springs an outline removed (family.present is 0 at their first particle),
+/// for the `count` springs starting at particle index `first`; nothing without an outline.
+void clearMissingSprings(const StencilFamily& family, int count, std::ptrdiff_t first, int arrays, double* const* values) {
+  if (family.present == nullptr) return;
+  const std::uint8_t* present = family.present + first;
+  for (int i = 0; i < count; ++i) {
+    if (present[i] != 0) continue;
+    for (int a = 0; a < arrays; ++a) values[a][i] = 0.0;
+  }
+}
+
 /// Most row-scratch arrays a kernel uses: the six entries of a symmetric 3x3 block.
 constexpr int kMaxRowArrays = 6;
 
@@ -184,6 +195,7 @@ void stencilAccumulateSpringForces(int rows, int cols, const StencilFamily* fami
                    springForceRow(count, offset, family.stiffness_N_per_m, family.damping_N_s_per_m,
                                   family.rest_length_m, x.x + first, x.y + first, x.z + first, v.x + first,
                                   v.y + first, v.z + first, spring[0], spring[1], spring[2]);
+                   clearMissingSprings(family, count, first, 3, spring);
                  });
 }
 
@@ -198,6 +210,10 @@ void stencilLinearize(int rows, int cols, const StencilFamily& family, ConstFiel
     linearizeRow(range.last - range.first, offset, family.stiffness_N_per_m, family.rest_length_m,
                  positions_m.x + first, positions_m.y + first, positions_m.z + first, inverse_length_per_m + first,
                  transverse_stiffness_N_per_m + first);
+    // A missing spring linearises to nothing: no direction and no transverse stiffness make its
+    // differential and its blocks zero.
+    double* linearised[2] = {inverse_length_per_m + first, transverse_stiffness_N_per_m + first};
+    clearMissingSprings(family, range.last - range.first, first, 2, linearised);
   }
 }
 

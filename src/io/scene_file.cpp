@@ -117,6 +117,104 @@ std::vector<T> readList(const YAML::Node& node, const std::vector<std::string>& 
   return items;
 }
 
+/// Every field of a material block, in the order a state file writes them.
+const std::vector<std::string>& materialFields() {
+  static const std::vector<std::string> fields{"preset", "areal_density", "stretch_modulus", "shear_modulus",
+                                               "bending_rigidity", "damping"};
+  return fields;
+}
+
+/// `material`: a preset's name, or a block of MaterialOptions' fields; a block with `preset` starts from
+/// that preset (its other fields override it), one without gives every field but `damping`.
+MaterialOptions readMaterial(const YAML::Node& node) {
+  const std::string presets = "a preset name (" + materialPresetNames() + ") or a map of " +
+                              "areal_density, stretch_modulus, shear_modulus, bending_rigidity and damping";
+  MaterialOptions material;
+  if (node.IsScalar()) {
+    const std::string name = readScalar<std::string>(node, presets.c_str(), {"str"});
+    if (!findMaterialPreset(name, &material)) throw WrongType{presets + " (got " + quoted(name) + ")"};
+    return material;
+  }
+  if (!node.IsMap()) throw WrongType{presets};
+  const std::vector<std::string>& fields = materialFields();
+  std::set<std::string> seen;
+  for (const auto& field : node) {
+    if (!field.first.IsScalar()) throw WrongType{"a map whose keys are names"};
+    const std::string name = field.first.Scalar();
+    if (std::find(fields.begin(), fields.end(), name) == fields.end()) {
+      throw WrongType{presets + " (got the key " + quoted(name) + ")"};
+    }
+    if (!seen.insert(name).second) throw WrongType{"a map with each key once ('" + name + "' twice)"};
+  }
+  material.damping_s = kDefaultMaterialDamping_s;
+  // preset "" is a block written by hand (a state file saves it so).
+  const std::string base = node["preset"] ? readScalar<std::string>(node["preset"], "a preset name", {"str"}) : "";
+  if (!base.empty()) {
+    const std::string& name = base;
+    if (!findMaterialPreset(name, &material)) {
+      throw WrongType{"a map whose preset is one of " + materialPresetNames() + " (got " + quoted(name) + ")"};
+    }
+  }
+  const std::pair<const char*, double MaterialOptions::*> numbers[] = {
+      {"areal_density", &MaterialOptions::areal_density_kg_per_m2},
+      {"stretch_modulus", &MaterialOptions::stretch_modulus_N_per_m},
+      {"shear_modulus", &MaterialOptions::shear_modulus_N_per_m},
+      {"bending_rigidity", &MaterialOptions::bending_rigidity_N_m},
+      {"damping", &MaterialOptions::damping_s}};
+  std::string missing;
+  for (const auto& [name, member] : numbers) {
+    if (node[name]) {
+      material.*member = readDouble(node[name]);
+    } else if (base.empty() && std::string(name) != "damping") {
+      missing += (missing.empty() ? "" : ", ") + std::string(name);
+    }
+  }
+  if (!missing.empty()) throw WrongType{"a map with every field, or a preset to start from (missing " + missing + ")"};
+  return material;
+}
+
+/// A point of the cloth's own (u, v) plane: [u, v].
+Eigen::Vector2d readPoint2(const YAML::Node& node, const char* expected) {
+  if (!node.IsSequence() || node.size() != 2) throw WrongType{expected};
+  return Eigen::Vector2d(readDouble(node[0]), readDouble(node[1]));
+}
+
+/// `outline`: none, {circle: {center: [u, v], radius: r}} or {polygon: [[u, v], ...]}.
+OutlineOptions readOutline(const YAML::Node& node) {
+  const char* expected = "none, {circle: {center: [u, v], radius: r}} or {polygon: [[u, v], [u, v], [u, v], ...]}";
+  OutlineOptions outline;
+  if (node.IsScalar()) {
+    if (readScalar<std::string>(node, expected, {"str"}) != "none") throw WrongType{expected};
+    return outline;
+  }
+  if (!node.IsMap() || node.size() != 1) throw WrongType{expected};
+  if (node["circle"]) {
+    const YAML::Node circle = node["circle"];
+    if (!circle.IsMap() || circle.size() != 2 || !circle["center"] || !circle["radius"]) throw WrongType{expected};
+    outline.shape = OutlineOptions::Shape::kCircle;
+    outline.center_m = readPoint2(circle["center"], expected);
+    outline.radius_m = readDouble(circle["radius"]);
+  } else if (node["polygon"]) {
+    const YAML::Node polygon = node["polygon"];
+    if (!polygon.IsSequence()) throw WrongType{expected};
+    outline.shape = OutlineOptions::Shape::kPolygon;
+    for (const YAML::Node& corner : polygon) outline.vertices_m.push_back(readPoint2(corner, expected));
+  } else {
+    throw WrongType{expected};
+  }
+  return outline;
+}
+
+/// The keys a material sets (mass and each spring kind's constants): a scene gives them or a material.
+bool isMaterialConstantKey(const std::string& key) {
+  if (key == "mass") return true;
+  for (int k = 0; k < kSpringKindCount; ++k) {
+    const std::string kind = springKindName(static_cast<SpringKind>(k));
+    if (key == kind + "_enabled" || key == kind + "_stiffness" || key == kind + "_damping") return true;
+  }
+  return false;
+}
+
 /// The `cameras` list: each entry a map of CameraOptions' keys; one without cx / cy gets the centre of
 /// its image.
 std::vector<CameraOptions> readCameras(const YAML::Node& node) {
@@ -173,6 +271,14 @@ std::map<std::string, Setter> makeSetters() {
     };
   }
   s["air_damping"] = [](const YAML::Node& n, SceneOptions& o) { o.air_damping_N_s_per_m = readDouble(n); };
+  s["material"] = [](const YAML::Node& n, SceneOptions& o) {
+    o.material = readMaterial(n);
+    o.has_material = true;
+  };
+  s["outline"] = [](const YAML::Node& n, SceneOptions& o) { o.outline = readOutline(n); };
+  s["bend_model"] = [](const YAML::Node& n, SceneOptions& o) {
+    if (!parseBendModelName(readString(n), &o.bend_model)) throw WrongType{"springs or curvature"};
+  };
   s["wind_enabled"] = [](const YAML::Node& n, SceneOptions& o) { o.wind_enabled = readBool(n); };
   s["wind"] = [](const YAML::Node& n, SceneOptions& o) { o.wind.velocity_m_per_s = readVector(n); };
   s["wind_model"] = [](const YAML::Node& n, SceneOptions& o) {
@@ -325,6 +431,18 @@ bool applySceneYaml(const YAML::Node& map, const std::string& source, SceneOptio
       errors->push_back(source + ": " + key + " = " + describe(entry.second) + ": expected " + wrong.expected);
     }
   }
+  if (options->has_material) {
+    // A material sets these for the grid: both at once would leave one of them silently unused.
+    std::string given;
+    for (const std::string& key : seen) {
+      if (isMaterialConstantKey(key)) given += (given.empty() ? "" : ", ") + key;
+    }
+    if (!given.empty()) {
+      errors->push_back(source + ": material and " + given +
+                        " given together: a material sets the mass and every spring's constants for the grid; "
+                        "give one or the other");
+    }
+  }
   return errors->size() == errors_before;
 }
 
@@ -453,13 +571,41 @@ std::string sceneYaml(const SceneOptions& o) {
   vector("origin", o.origin_m);
   vector("u_axis", o.u_axis);
   vector("v_axis", o.v_axis);
-  number("mass", o.mass_kg);
   vector("gravity", o.gravity_m_per_s2);
-  for (int k = 0; k < kSpringKindCount; ++k) {
-    const std::string kind = springKindName(static_cast<SpringKind>(k));
-    boolean(kind + "_enabled", o.springs[k].enabled);
-    number(kind + "_stiffness", o.springs[k].stiffness_N_per_m);
-    number(kind + "_damping", o.springs[k].damping_N_s_per_m);
+  if (o.has_material) {
+    // The material, not the constants it gives this grid (they are derived again on reading).
+    key("material") << YAML::BeginMap;
+    out << YAML::Key << "preset" << YAML::Value;
+    emitString(out, o.material.preset);
+    out << YAML::Key << "areal_density" << YAML::Value << exactNumber(o.material.areal_density_kg_per_m2);
+    out << YAML::Key << "stretch_modulus" << YAML::Value << exactNumber(o.material.stretch_modulus_N_per_m);
+    out << YAML::Key << "shear_modulus" << YAML::Value << exactNumber(o.material.shear_modulus_N_per_m);
+    out << YAML::Key << "bending_rigidity" << YAML::Value << exactNumber(o.material.bending_rigidity_N_m);
+    out << YAML::Key << "damping" << YAML::Value << exactNumber(o.material.damping_s) << YAML::EndMap;
+  } else {
+    number("mass", o.mass_kg);
+    for (int k = 0; k < kSpringKindCount; ++k) {
+      const std::string kind = springKindName(static_cast<SpringKind>(k));
+      boolean(kind + "_enabled", o.springs[k].enabled);
+      number(kind + "_stiffness", o.springs[k].stiffness_N_per_m);
+      number(kind + "_damping", o.springs[k].damping_N_s_per_m);
+    }
+  }
+  key("bend_model") << bendModelName(o.bend_model);
+  key("outline");
+  if (o.outline.shape == OutlineOptions::Shape::kNone) {
+    out << "none";
+  } else if (o.outline.shape == OutlineOptions::Shape::kCircle) {
+    out << YAML::BeginMap << YAML::Key << "circle" << YAML::Value << YAML::BeginMap << YAML::Key << "center"
+        << YAML::Value << YAML::Flow << YAML::BeginSeq << exactNumber(o.outline.center_m.x())
+        << exactNumber(o.outline.center_m.y()) << YAML::EndSeq << YAML::Key << "radius" << YAML::Value
+        << exactNumber(o.outline.radius_m) << YAML::EndMap << YAML::EndMap;
+  } else {
+    out << YAML::BeginMap << YAML::Key << "polygon" << YAML::Value << YAML::BeginSeq;
+    for (const Eigen::Vector2d& corner : o.outline.vertices_m) {
+      out << YAML::Flow << YAML::BeginSeq << exactNumber(corner.x()) << exactNumber(corner.y()) << YAML::EndSeq;
+    }
+    out << YAML::EndSeq << YAML::EndMap;
   }
   number("air_damping", o.air_damping_N_s_per_m);
   boolean("wind_enabled", o.wind_enabled);

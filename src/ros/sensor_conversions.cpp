@@ -75,14 +75,19 @@ sensor_msgs::PointCloud2 toParticleCloud(const core::Simulation& simulation, con
                                          const ros::Time& stamp) {
   const core::ClothGrid& grid = simulation.grid();
   sensor_msgs::PointCloud2 cloud = emptyCloud(grid.cols, grid.rows, true, frame_id, stamp);
-  cloud.is_dense = true;
+  // Organised (rows x cols): a particle outside the cloth's outline is an invalid point, NaN, as REP 118
+  // and the PCL convention have it, so the cloud is then not dense.
+  cloud.is_dense = !grid.hasOutline();
+  constexpr float kInvalid = std::numeric_limits<float>::quiet_NaN();
   const Eigen::Matrix3Xd& positions_m = simulation.state().positions_m;
   const Eigen::Matrix3Xf& colors = simulation.vertexColors();
   const bool has_colors = colors.cols() == positions_m.cols();
   for (int i = 0; i < grid.particleCount(); ++i) {
     const std::uint32_t rgb = packRgb(has_colors ? Eigen::Vector3f(colors.col(i)) : Eigen::Vector3f::Ones());
-    float values[4] = {static_cast<float>(positions_m(0, i)), static_cast<float>(positions_m(1, i)),
-                       static_cast<float>(positions_m(2, i)), 0.0f};
+    const bool inside = grid.isActive(i);
+    float values[4] = {inside ? static_cast<float>(positions_m(0, i)) : kInvalid,
+                       inside ? static_cast<float>(positions_m(1, i)) : kInvalid,
+                       inside ? static_cast<float>(positions_m(2, i)) : kInvalid, 0.0f};
     std::memcpy(&values[3], &rgb, sizeof(float));  // rviz reads the rgb float's bits as 0x00RRGGBB
     writeFloats(&cloud.data[static_cast<std::size_t>(i) * kPointStep], values, 4);
   }

@@ -51,7 +51,13 @@ bool plot(const std::string& csv_path, const std::string& png_path, const std::s
 
 // Bend springs act across two cells and do not scale this simply: they are kept, a small difference next to the
 // structural springs.
+// A material scene needs nothing of this: its constants are per area already (core::resolveMaterial).
 void resampleScene(const GridSize& grid, core::SceneOptions* scene) {
+  if (scene->has_material) {
+    scene->rows = grid.rows;
+    scene->cols = grid.cols;
+    return;
+  }
   const double particle_ratio =
       static_cast<double>(scene->rows * scene->cols) / static_cast<double>(grid.rows * grid.cols);
   const double triangle_ratio = static_cast<double>((scene->rows - 1) * (scene->cols - 1)) /

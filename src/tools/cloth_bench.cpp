@@ -18,6 +18,7 @@
 #include "accuracy_tool.h"
 #include "bench_common.h"
 #include "bench_stats.h"
+#include "mode_validate.h"
 #ifdef CLOTH_SIM_HAVE_BULLET
 #include "bullet_cloth.h"
 #endif
@@ -118,7 +119,8 @@ Times a cloth scene and prints one JSON line on stdout.
 
 Other modes (each with its own --help): --accuracy (speed against accuracy of every integrator and substep count
 on a scene, with a recommendation), --stability-map (largest stable step of each integrator against stiffness and
-mass, beside theory), --spatial (error of a grid against a finer grid of the same cloth), --terms (cost and effect
+mass, beside theory), --spatial (error of a grid against a finer grid of the same cloth), --validate (the textile
+tests of doc/VALIDATION.md), --terms (cost and effect
 of each force and collider term of a scene), --solver-sweep (implicit Euler's solver tolerance and iteration cap:
 cost, CG iterations, converged share and error against a solve converged to 1e-9).
 
@@ -629,6 +631,9 @@ int main(int argc, char** argv) {
   // --accuracy, --stability-map, --spatial and --terms are modes of their own, with their own flags.
   if (cloth_sim::bench::isAccuracyToolCommand(argc, argv)) {
     return cloth_sim::bench::runAccuracyTool(argc, argv, CLOTH_SIM_SCENES_DIR);
+  }
+  if (cloth_sim::bench::isValidateCommand(argc, argv)) {
+    return cloth_sim::bench::runValidate(argc, argv, CLOTH_SIM_SCENES_DIR);
   }
   BenchOptions options;
   std::vector<std::string> errors;

@@ -25,6 +25,13 @@ inline SceneOptions loadBuiltinScene(const std::string& name) {
   return options;
 }
 
+/// A built-in material preset; fails the test (and returns an empty material) if there is none.
+inline MaterialOptions preset(const std::string& name) {
+  MaterialOptions material;
+  EXPECT_TRUE(findMaterialPreset(name, &material)) << name;
+  return material;
+}
+
 /// The rest grid jiggled by up to 30 % of a spacing, with random velocities in [-1, 1] m/s: every spring
 /// stretched, compressed, skewed and moving, so every term of a linearisation is exercised.
 inline void perturb(const ClothGrid& grid, std::uint32_t seed, Eigen::Matrix3Xd* positions,

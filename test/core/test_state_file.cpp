@@ -44,12 +44,31 @@ bool sameBits(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::memcmp(a.data(), b.data(), sizeof(double) * 3) == 0;
 }
 
-/// Every SceneOptions field compared bit for bit; the first that differs is named.
-::testing::AssertionResult sameOptions(const SceneOptions& a, const SceneOptions& b) {
+/// Every SceneOptions field compared bit for bit; the first that differs is named. A material's constants
+/// (mass, springs) are compared as the material gives them for the grid: a state file holds the material.
+::testing::AssertionResult sameOptions(const SceneOptions& given_a, const SceneOptions& given_b) {
+  const SceneOptions a = resolveMaterial(given_a);
+  const SceneOptions b = resolveMaterial(given_b);
   std::vector<std::string> differ;
   const auto check = [&differ](bool same, const std::string& field) {
     if (!same) differ.push_back(field);
   };
+  check(a.has_material == b.has_material, "material");
+  check(a.material.preset == b.material.preset, "material.preset");
+  check(sameBits(a.material.areal_density_kg_per_m2, b.material.areal_density_kg_per_m2), "material.areal_density");
+  check(sameBits(a.material.stretch_modulus_N_per_m, b.material.stretch_modulus_N_per_m), "material.stretch_modulus");
+  check(sameBits(a.material.shear_modulus_N_per_m, b.material.shear_modulus_N_per_m), "material.shear_modulus");
+  check(sameBits(a.material.bending_rigidity_N_m, b.material.bending_rigidity_N_m), "material.bending_rigidity");
+  check(sameBits(a.material.damping_s, b.material.damping_s), "material.damping");
+  check(a.bend_model == b.bend_model, "bend_model");
+  // Only the fields of the outline's shape count (a polygon's file has no circle).
+  bool same_outline = a.outline.shape == b.outline.shape;
+  if (same_outline && a.outline.shape == OutlineOptions::Shape::kCircle) {
+    same_outline = sameBits(a.outline.radius_m, b.outline.radius_m) && a.outline.center_m == b.outline.center_m;
+  } else if (same_outline && a.outline.shape == OutlineOptions::Shape::kPolygon) {
+    same_outline = a.outline.vertices_m == b.outline.vertices_m;
+  }
+  check(same_outline, "outline");
   check(a.name == b.name, "name");
   check(a.rows == b.rows, "rows");
   check(a.cols == b.cols, "cols");
@@ -467,14 +486,41 @@ TEST(Restore, RestoreStateChecksItsInputAndKeepsOptionsAndInputs) {
 
 // ---- The scene writer ------------------------------------------------------------------------------
 
-TEST(SceneYaml, EmitsEveryKeyOfTheSceneMapAndNothingElse) {
-  const YAML::Node map = YAML::Load(sceneYaml(SceneOptions()));
-  ASSERT_TRUE(map.IsMap());
+SceneOptions readBack(const std::string& text);
+
+std::set<std::string> emittedKeys(const SceneOptions& options) {
+  const YAML::Node map = YAML::Load(sceneYaml(options));
   std::set<std::string> emitted;
+  if (!map.IsMap()) return emitted;
   for (const auto& entry : map) emitted.insert(entry.first.Scalar());
-  const std::set<std::string> keys(sceneKeys().begin(), sceneKeys().end());
-  EXPECT_EQ(emitted, keys);
+  return emitted;
+}
+
+TEST(SceneYaml, EmitsEveryKeyOfTheSceneMapAndNothingElse) {
+  // The paper's constants, or a material instead of them (mass and the springs' nine keys).
+  std::set<std::string> keys(sceneKeys().begin(), sceneKeys().end());
   EXPECT_GT(keys.size(), 40u) << "sceneKeys() looks too short to prove anything";
+  std::set<std::string> paper_keys = keys;
+  paper_keys.erase("material");
+  EXPECT_EQ(emittedKeys(SceneOptions()), paper_keys);
+  SceneOptions denim;
+  denim.has_material = true;
+  ASSERT_TRUE(findMaterialPreset("denim", &denim.material));
+  std::set<std::string> material_keys = keys;
+  material_keys.erase("mass");
+  for (const char* kind : {"structural", "shear", "bend"}) {
+    for (const char* field : {"_enabled", "_stiffness", "_damping"}) material_keys.erase(std::string(kind) + field);
+  }
+  EXPECT_EQ(emittedKeys(denim), material_keys);
+  EXPECT_TRUE(sameOptions(denim, readBack(sceneYaml(denim))));
+  // Outlines read back exactly too.
+  denim.outline.shape = OutlineOptions::Shape::kCircle;
+  denim.outline.center_m = Eigen::Vector2d(0.5, 0.1 + 0.2);
+  denim.outline.radius_m = 0.3;
+  EXPECT_TRUE(sameOptions(denim, readBack(sceneYaml(denim))));
+  denim.outline.shape = OutlineOptions::Shape::kPolygon;
+  denim.outline.vertices_m = {{0.0, 0.0}, {1.0, 0.0}, {0.5, 1.0 / 3.0}};
+  EXPECT_TRUE(sameOptions(denim, readBack(sceneYaml(denim))));
 }
 
 SceneOptions readBack(const std::string& text) {

@@ -1217,8 +1217,9 @@ TEST(BadParams, APinMotionTooFastForTheNodeToPublishFinitelyIsRefused) {
 
 TEST(BadParams, NanInfAndAbsurdSizesAreNamed) {
   // roscpp reads `nan` and `inf` on the command line as doubles.
-  expectRefused("bad_nan", "_mass:=nan", {"mass = nan"});
-  expectRefused("bad_inf", "_structural_stiffness:=inf", {"structural_stiffness = inf"});
+  // On a scene of the paper's constants (the default `drape` is a material, which refuses them by name).
+  expectRefused("bad_nan", "_scene:=hanging _mass:=nan", {"mass = nan"});
+  expectRefused("bad_inf", "_scene:=hanging _structural_stiffness:=inf", {"structural_stiffness = inf"});
   expectRefused("bad_rows", "_rows:=100000", {"rows = 100000", "[2, 512]"});
   XmlRpc::XmlRpcValue wind;
   for (int i = 0; i < 3; ++i) wind[i] = 100.0;  // each component allowed, 173 m/s in all
@@ -1251,6 +1252,18 @@ TEST(BadParams, ARobotDescriptionThatIsMissingOrNotAUrdfIsNamed) {
                               {"/bad_urdf_text/junk", "not a URDF"});
   // Before, a name roscpp's NodeHandle refuses ("~..." there, or a space) ended the node with an exception.
   expectRefused("bad_urdf_param_name", "'_robot_description:=a b'", {"~robot_description = 'a b'", "not a valid"});
+}
+
+TEST(BadParams, AMaterialWithItsOwnConstantsOrAnUnknownPresetIsNamed) {
+  // Issue 17: the default scene (drape) is cotton; a mass or spring constant over it is refused by name.
+  expectRefused("bad_material_mass", "_mass:=0.3 _bend_stiffness:=5",
+                {"material and bend_stiffness, mass given together", "give one or the other"});
+  expectRefused("bad_material_name", "_material:=velvet", {"material", "cotton, denim, wool, polyester, silk", "velvet"});
+  expectRefused("bad_bend_model", "_scene:=hanging _bend_model:=curvature", {"bend_model = curvature: needs a material"});
+  // A material given as a parameter replaces a paper scene's constants: the node runs.
+  const ProcessResult result = runProcess("timeout 3 " + nodeBinary() +
+                                          " __name:=good_material _scene:=hanging _material:=denim _bend_model:=curvature");
+  EXPECT_EQ(result.exit_code, 124) << result.output;
 }
 
 TEST(BadParams, GoodParametersRun) {

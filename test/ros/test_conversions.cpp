@@ -1,15 +1,18 @@
 // The node's conversions on their own (no master needed): a parameter of the wrong type is refused by
 // name instead of falling back to a default, no non-finite number is let out to be published, and a
 // state message from another node is checked before it is drawn.
+#include "cloth_sim/core/simulation.h"
 #include "cloth_sim/io/scene_file.h"
 #include "cloth_sim/ros/conversions.h"
 #include "cloth_sim/ros/grasp_queue.h"
+#include "cloth_sim/ros/sensor_conversions.h"
 
 #include <boost/make_shared.hpp>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <string>
 #include <vector>
@@ -189,3 +192,27 @@ TEST(GraspCommandQueue, PastItsIdLimitGrabsMakeRoomAndReleasesStay) {
 }
 
 }  // namespace
+
+TEST(ParticleCloud, ParticlesOutsideTheOutlineAreInvalidPoints) {
+  // Issue 17: an organised cloud keeps the grid's shape; a removed particle is NaN and the cloud not dense.
+  cloth_sim::core::SceneOptions options;
+  options.rows = 9;
+  options.cols = 9;
+  options.pins.clear();
+  options.outline.shape = cloth_sim::core::OutlineOptions::Shape::kCircle;
+  options.outline.center_m = Eigen::Vector2d(0.5, 0.5);
+  options.outline.radius_m = 0.5;
+  const cloth_sim::core::Simulation simulation(options);
+  const sensor_msgs::PointCloud2 cloud = cloth_sim::toParticleCloud(simulation, "world", ros::Time(1.0));
+  EXPECT_FALSE(cloud.is_dense);
+  ASSERT_EQ(cloud.width * cloud.height, 81u);
+  int invalid = 0;
+  for (int i = 0; i < 81; ++i) {
+    float x = 0.0f;
+    std::memcpy(&x, &cloud.data[static_cast<std::size_t>(i) * cloud.point_step], sizeof(float));
+    EXPECT_EQ(std::isnan(x), !simulation.grid().isActive(i)) << i;
+    invalid += std::isnan(x) ? 1 : 0;
+  }
+  EXPECT_GT(invalid, 0);
+  EXPECT_LT(invalid, 81);
+}

@@ -7,6 +7,7 @@
 // order, so the results are bit-identical whatever the thread count.
 #pragma once
 
+#include "cloth_sim/core/curvature_bending.h"
 #include "cloth_sim/core/grid.h"
 #include "cloth_sim/core/grid_matrix.h"
 #include "cloth_sim/core/inputs.h"
@@ -19,6 +20,8 @@
 
 #include <array>
 #include <cstddef>
+#include <cstdint>
+#include <vector>
 
 namespace cloth_sim::core {
 
@@ -53,8 +56,13 @@ class ClothForceModel final : public Dynamics {
   void systemProduct(double step_s, const Eigen::Matrix3Xd& w, Eigen::Matrix3Xd& out) override;
   void systemDiagonalBlocks(double step_s, Eigen::Matrix<double, 6, Eigen::Dynamic>& blocks) override;
   /// 13 offsets: the diagonal (systemDiagonalBlocks) and each spring family both ways (minus the
-  /// springs' blocks).
+  /// springs' blocks, plus the curvature term's, whose offsets are the same).
   bool systemGridMatrix(double step_s, GridBlockMatrix& matrix) override;
+
+  /// The curvature bending term's energy, J (0 with bend springs).
+  double bendingEnergy_J(const Eigen::Matrix3Xd& positions_m) const { return curvature_.energy_J(positions_m); }
+  /// The curvature bending term (empty unless bend_model is curvature with a material's rigidity).
+  const CurvatureBending& curvatureBending() const { return curvature_; }
 
   /// Springs one force evaluation computes (of the switched-on kinds).
   std::size_t springCount() const;
@@ -81,6 +89,8 @@ class ClothForceModel final : public Dynamics {
   double* threadRowScratch();
   /// True from the particle count where threads pay (src/core/parallel.h).
   bool parallel() const;
+  /// Adds the curvature term's off-diagonal blocks (h^2 + h beta) Q_ij to the system matrix.
+  void addCurvatureBlocks(double step_s, GridBlockMatrix& matrix) const;
   /// Adds the springs' differential for the change w in positions (times scale_x) and velocities (times
   /// scale_v) to out.
   void addSpringDifferential(const SoaField& w, double scale_x, double scale_v, SoaField& out);
@@ -90,8 +100,11 @@ class ClothForceModel final : public Dynamics {
   const Eigen::VectorXd& mass_kg_;
   const ClothInputs& inputs_;
   Kinematics kinematics_;                ///< from options_ and inputs_, by refreshConstraints
+  CurvatureBending curvature_;           ///< from options_, by refreshConstraints
   Eigen::VectorXd inverse_mass_per_kg_;  ///< 0 on the particles kinematics_ holds (hooked pins)
   std::array<double, kStencilFamilies.size()> rest_length_m_{};  ///< per family, from the rest grid
+  /// Per family, with an outline: 1 at the first particle of each spring whose ends are both inside.
+  std::array<std::vector<std::uint8_t>, kStencilFamilies.size()> present_;
 
   // Scratch, reused across calls (sized on first use).
   SoaField positions_, velocities_, result_, dx_;

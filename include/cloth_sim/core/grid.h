@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 namespace cloth_sim::core {
@@ -37,15 +38,24 @@ struct ClothGrid {
   std::vector<int> triangles;
   Eigen::Matrix2Xd uv;                ///< texture coordinate per particle, in [0, 1]^2
   Eigen::Matrix3Xd rest_positions_m;  ///< initial position per particle, world frame, m
+  /// 1 per particle inside the scene's outline, 0 outside (issue 17); empty: every particle is in. A
+  /// particle outside keeps its place in the arrays (the stencil kernels and multigrid work on the whole
+  /// rectangle) but has no springs, no triangles and no mass that moves: it stays where it started.
+  std::vector<std::uint8_t> active;
 
   int particleCount() const { return rows * cols; }
+  bool isActive(int particle) const { return active.empty() || active[static_cast<std::size_t>(particle)] != 0; }
+  bool hasOutline() const { return !active.empty(); }
   int index(int row, int col) const { return row * cols + col; }
   const SpringSet& springsOf(SpringKind kind) const { return springs[static_cast<int>(kind)]; }
 };
 
 /// Lays the grid out flat: particle (r, c) sits at origin + c * du * u_axis + r * dv * v_axis with
 /// du = width / (cols - 1), dv = height / (rows - 1). u_axis and v_axis must be unit and orthogonal.
+/// `active` (empty, or one entry per particle): the particles inside an outline; springs and triangles
+/// are built between active particles only.
 ClothGrid buildClothGrid(int rows, int cols, double width_m, double height_m, const Eigen::Vector3d& origin_m,
-                         const Eigen::Vector3d& u_axis, const Eigen::Vector3d& v_axis);
+                         const Eigen::Vector3d& u_axis, const Eigen::Vector3d& v_axis,
+                         const std::vector<std::uint8_t>& active = {});
 
 }  // namespace cloth_sim::core

@@ -4,8 +4,10 @@
 
 #include "cloth_sim/core/camera.h"
 #include "cloth_sim/core/contact.h"
+#include "cloth_sim/core/curvature_bending.h"
 #include "cloth_sim/core/forces.h"
 #include "cloth_sim/core/integrators.h"
+#include "cloth_sim/core/material.h"
 #include "cloth_sim/core/self_collision.h"
 
 #include <Eigen/Core>
@@ -83,6 +85,16 @@ std::string textLengthProblem(const std::string& field, const std::string& value
 /// The value of the `substeps` key (scene files, parameters) that asks for SceneOptions::kAutoSubsteps.
 inline constexpr const char* kAutoSubstepsName = "auto";
 
+/// A non-rectangular cloth (issue 17): the particles of the rows x cols grid inside this outline, in the
+/// cloth's own (u, v) metres (particle (r, c) sits at (c du, r dv)), with their springs and triangles.
+struct OutlineOptions {
+  enum class Shape { kNone, kCircle, kPolygon };
+  Shape shape = Shape::kNone;
+  Eigen::Vector2d center_m = Eigen::Vector2d::Zero();  ///< kCircle
+  double radius_m = 0.0;                               ///< kCircle
+  std::vector<Eigen::Vector2d> vertices_m;             ///< kPolygon, in order (either way round)
+};
+
 struct SceneOptions {
   std::string name = "hanging";
 
@@ -95,12 +107,22 @@ struct SceneOptions {
   Eigen::Vector3d u_axis{1.0, 0.0, 0.0};
   Eigen::Vector3d v_axis{0.0, 0.0, -1.0};
 
-  double mass_kg = 0.5;  ///< whole cloth, shared equally by the particles
+  double mass_kg = 0.5;  ///< whole cloth, shared equally by the particles (by area with a material)
   Eigen::Vector3d gravity_m_per_s2{0.0, 0.0, -9.81};
 
   /// Indexed by SpringKind.
   std::array<SpringOptions, kSpringKindCount> springs{{{true, 1000.0, 0.5}, {true, 200.0, 0.1}, {true, 40.0, 0.02}}};
-  double air_damping_N_s_per_m = 0.002;  ///< per particle, paper §3.2
+  double air_damping_N_s_per_m = 0.002;  ///< per particle, paper §3.2 (see airDampingPerParticle)
+
+  /// A fabric in physical units (issue 17). With one, `mass` and the springs' constants are derived
+  /// from it for this grid (resolveMaterial), and air damping and the paper's wind act per area; without
+  /// one (the paper's scenes), they are the per-spring and per-particle values as given.
+  bool has_material = false;
+  MaterialOptions material;
+  /// Bend springs (the paper) or the curvature energy (needs a material).
+  BendModel bend_model = BendModel::kSprings;
+  /// The cloth's outline; none: the whole rectangle.
+  OutlineOptions outline;
   bool wind_enabled = false;
   WindOptions wind;
 
@@ -158,6 +180,31 @@ struct SceneOptions {
   /// The step of a fixed substep count, s (with `auto` the guard decides it frame by frame).
   double substep_s() const { return frameDuration_s() / substeps; }
 };
+
+/// The paper's cloth (1 m x 1 m on 20 x 20 particles): air damping and the paper's wind coefficient are
+/// per particle and per triangle of this size, and a material scene scales them by its own particles'
+/// and triangles' area, so they act per area, the same at every resolution, and unchanged on this grid.
+inline constexpr double kPaperParticleArea_m2 = 1.0 / 400.0;
+inline constexpr double kPaperTriangleArea_m2 = 1.0 / (2.0 * 19.0 * 19.0);
+
+/// The options with a material's derived values in force: mass and the three spring kinds from
+/// materialConstants (unchanged without a material). Idempotent.
+SceneOptions resolveMaterial(const SceneOptions& options);
+/// Air damping per particle, N s/m: air_damping as given, or in a material scene scaled by the particles'
+/// mean area over kPaperParticleArea_m2.
+double airDampingPerParticle_N_s_per_m(const SceneOptions& options);
+/// The paper wind's coefficient per triangle, N s/m: as given, or in a material scene scaled by the
+/// triangles' area over kPaperTriangleArea_m2.
+double paperWindCoefficientPerTriangle_N_s_per_m(const SceneOptions& options);
+
+/// Which particles the outline keeps (1) and removes (0), one per particle; empty without an outline. A
+/// particle on the outline counts as inside (to 1e-9 of the spacing).
+std::vector<std::uint8_t> outlineMask(const SceneOptions& options);
+
+/// The curvature bending term of these options: built when bend_model is curvature and there is a
+/// material, cleared otherwise.
+void buildCurvatureBending(const SceneOptions& options, CurvatureBending* curvature,
+                           const std::vector<std::uint8_t>& active = {});
 
 /// Every problem with the options, each naming the field, its value and the allowed range, e.g.
 /// "substeps = 0: must be in [1, 10000]". Empty when the options are valid.

@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstddef>
+#include <cstdint>
 
 namespace cloth_sim::core {
 
@@ -31,6 +32,9 @@ struct StencilFamily {
   double rest_length_m = 0.0;
   double stiffness_N_per_m = 0.0;
   double damping_N_s_per_m = 0.0;
+  /// Per particle index, 1 where the spring starting there exists, 0 where an outline removed it (an end
+  /// outside); null: every spring exists.
+  const std::uint8_t* present = nullptr;
 
   /// Index distance from a spring's first particle to its second; always > 0.
   int offset(int cols) const { return dr * cols + dc; }
