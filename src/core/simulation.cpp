@@ -14,11 +14,19 @@ namespace {
 /// Squares of the built-in checker per side of the cloth.
 constexpr int kCheckerSquares = 8;
 
+/// The same outline: the fields of its shape (a retune compares them, not the masks they give, which
+/// would be rebuilt for every reconfigure).
+bool sameOutline(const OutlineOptions& a, const OutlineOptions& b) {
+  if (a.shape != b.shape) return false;
+  if (a.shape == OutlineOptions::Shape::kCircle) return a.center_m == b.center_m && a.radius_m == b.radius_m;
+  return a.shape == OutlineOptions::Shape::kNone || a.vertices_m == b.vertices_m;
+}
+
 bool sameGrid(const SceneOptions& a, const SceneOptions& b) {
   return a.rows == b.rows && a.cols == b.cols && a.width_m == b.width_m && a.height_m == b.height_m &&
          a.origin_m == b.origin_m && a.u_axis == b.u_axis && a.v_axis == b.v_axis && a.pins == b.pins &&
          a.pin_positions_m == b.pin_positions_m && a.pin_travel_time_s == b.pin_travel_time_s &&
-         a.mass_kg == b.mass_kg && a.has_material == b.has_material && outlineMask(a) == outlineMask(b);
+         a.mass_kg == b.mass_kg && a.has_material == b.has_material && sameOutline(a.outline, b.outline);
 }
 
 /// Empty when `given` leaves the constants its material sets as the material sets them (a retune passes

@@ -325,6 +325,7 @@ CusickMeasurement runCusick(const SceneOptions& scene, double seconds) {
   measurement.frames = frames;
   measurement.positions_m = simulation.state().positions_m;
   const ClothGrid& grid = simulation.grid();
+  measurement.triangles = grid.triangles;
   double motion_m = 0.0;
   for (int p = 0; p < grid.particleCount(); ++p) {
     if (grid.isActive(p)) motion_m = std::max(motion_m, (measurement.positions_m.col(p) - second_before.col(p)).norm());

@@ -226,10 +226,8 @@ int cusick(const ValidateOptions& options, const core::MaterialOptions& material
       << ", \"ms_per_frame\": " << number(elapsed_ms / measured.frames);
   if (options.positions) {
     printPositions(measured.positions_m, out);
-    const core::ClothGrid grid = core::buildClothGrid(scene.rows, scene.cols, scene.width_m, scene.height_m,
-                                                      scene.origin_m, scene.u_axis, scene.v_axis, core::outlineMask(scene));
     out << ", \"triangles\": [";
-    for (std::size_t t = 0; t < grid.triangles.size(); ++t) out << (t == 0 ? "" : ", ") << grid.triangles[t];
+    for (std::size_t t = 0; t < measured.triangles.size(); ++t) out << (t == 0 ? "" : ", ") << measured.triangles[t];
     out << "]";
   }
   out << "}";

@@ -63,6 +63,7 @@ struct CusickMeasurement {
   int frames = 0;
   double last_second_motion_m = 0.0;  ///< the most any particle moved in the last simulated second
   Eigen::Matrix3Xd positions_m;       ///< at the end
+  std::vector<int> triangles;         ///< the specimen's (the grid's kept triangles), for pictures
 };
 /// Runs a cusickScene for `seconds` and measures it.
 CusickMeasurement runCusick(const SceneOptions& scene, double seconds);
