@@ -159,8 +159,9 @@ void expectAFold(const FoldOutcome& outcome, double creep_bound_m_per_s) {
 
 /// The issue asks that each particle of a folded towel at rest move less than 1 mm per second. Not met:
 /// the folded towel drifts over the floor as a whole at 1.5-1.7 mm/s (24 x 24 and 48 x 48, measured;
-/// issue 15's note), so this bound is twice the issue's until that drift is found. It still catches a
-/// towel that jitters or slides apart (5-100 mm/s before the fixes in self_collision.cpp).
+/// issue 15's note), so this bound is twice the issue's. The drift is the floor's friction, which stops
+/// velocities but not the step's own slide (doc/PHYSICS.md, "Collisions (§4)", with what was tried). It still
+/// catches a towel that jitters or slides apart (5-100 mm/s before the fixes in self_collision.cpp).
 constexpr double kRestCreep_m_per_s = 2e-3;
 
 TEST(SelfCollisionFold, A24x24TowelFoldedInHalfNeverCrossesItselfAndLiesFolded) {
