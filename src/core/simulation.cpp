@@ -198,7 +198,12 @@ FrameEnvelope Simulation::frameEnvelope() const {
   scene.kinetic_J = energies_now.kinetic_J;
   scene.elastic_J = energies_now.elastic_J;
   scene.strain_before = energy_cache_valid_ ? cached_strain_ : maxStructuralStrain();
-  return core::frameEnvelope(scene);
+  FrameEnvelope envelope = core::frameEnvelope(scene);
+  if (options_.self_collision.enabled) {
+    envelope.stretch_ratio_before = selfCollisionStretchRatio(
+        grid_, selfCollisionThickness_m(options_.self_collision, grid_), state_.positions_m);
+  }
+  return envelope;
 }
 
 bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps, FrameReport* report) {
@@ -216,10 +221,20 @@ bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps,
     // `auto` also refines a frame that first stretches the cloth past the warning (a hem caught on a
     // table's edge): more substeps follow the impact more closely. Only at the crossing and only one
     // doubling, so a cloth a hand stretches on purpose pays one recomputation and 2x from then on.
+    // The same for a frame that takes self-collision's no-crossing guarantee out of force (an edge longer
+    // than it allows): at one implicit step a towel's fold line jams there as the upper half is laid down
+    // (its springs at 20-45 % strain, held by the layers' contacts), and stays jammed at rest; at two it
+    // forms a round fold (measured: doc/PHYSICS.md, "Self-collision").
     const bool first_of_several = attempt == 0 && guard_.attempts(options_.guard_retries) > 1;
-    if (problem.empty() && options_.autoSubsteps() && first_of_several && report->max_strain > kStrainWarning &&
-        envelope.strain_before <= kStrainWarning) {
+    const bool refine = problem.empty() && options_.autoSubsteps() && first_of_several;
+    const bool leaves_guarantee = report->self_collision.stretch_ratio > SelfCollision::kGuaranteedStretchRatio &&
+                                  envelope.stretch_ratio_before <= SelfCollision::kGuaranteedStretchRatio;
+    if (refine && report->max_strain > kStrainWarning && envelope.strain_before <= kStrainWarning) {
       problem = "over-stretched to " + std::to_string(report->max_strain);
+    } else if (refine && leaves_guarantee) {
+      problem = "self-collision stretch ratio " + std::to_string(report->self_collision.stretch_ratio) +
+                " (the no-crossing guarantee holds up to " +
+                std::to_string(SelfCollision::kGuaranteedStretchRatio) + ")";
     } else if (problem.empty()) {
       cached_energies_ = energies_after;
       cached_strain_ = report->max_strain;
@@ -310,12 +325,15 @@ FrameReport Simulation::advanceFrame() {
            << report.rejection << " before): raise substeps or use substeps: auto";
   } else if (!warning.empty()) {
     reason << warning;
-  } else if (report.self_collision.forced > 0) {
-    // Not a crossing the simulation made, but not one to pass over in silence either.
+  } else if (report.max_strain > kStrainWarning && report.self_collision.forced == 0) {
+    reason << "over-stretched: structural strain " << report.max_strain << " > " << kStrainWarning;
+  }
+  if (report.self_collision.forced > 0) {
+    // Not a crossing the simulation made, but not one to pass over in silence either, whatever else the
+    // frame reports (a hand dragging the cloth through itself also stretches it: the guard refines it).
+    if (reason.tellp() > 0) reason << "; ";
     reason << "a pinned or gripped particle pulled the cloth through itself (" << report.self_collision.forced
            << " particle pairs the self-collision could not keep apart)";
-  } else if (report.max_strain > kStrainWarning) {
-    reason << "over-stretched: structural strain " << report.max_strain << " > " << kStrainWarning;
   }
   report.reason = reason.str();
   return report;
