@@ -144,8 +144,17 @@ ContactStats Simulation::integrateFrame(int substeps, StepReport* steps, SelfCol
     state_.time_s = frame_start_s + (k + 1) * step_s;
     force_model_.enforceConstraints(state_.time_s, state_);
     if (!options_.colliders.empty()) {
+      // Static friction's test needs the forces where the step ended (one more evaluation a substep, only
+      // in scenes with fixed colliders and friction).
+      const bool static_friction = options_.contact.friction > 0.0 &&
+                                   !(options_.colliders.planes.empty() && options_.colliders.boxes.empty() &&
+                                     options_.colliders.spheres.empty());
+      if (static_friction) {
+        force_model_.forces(state_.positions_m, state_.velocities_m_per_s, state_.time_s, contact_forces_N_);
+      }
       contacts += resolveContacts(options_.colliders, options_.contact, t0_s, state_.time_s, inverse_mass,
-                                  substep_start_positions_m_, state_.positions_m, state_.velocities_m_per_s);
+                                  substep_start_positions_m_, state_.positions_m, state_.velocities_m_per_s,
+                                  static_friction ? &contact_forces_N_ : nullptr);
       if (!options_.colliders.frames.empty()) {
         contacts += resolveFrameColliders(options_.colliders.frames, inputs_.frame_colliders, options_.contact, t0_s,
                                           state_.time_s, inverse_mass, substep_start_positions_m_, state_.positions_m,
