@@ -181,6 +181,35 @@ TEST(SelfCollisionFold, A48x48TowelFoldedInHalfNeverCrossesItselfAndLiesFolded) 
   expectAFold(runFold(48), kRestCreep_m_per_s);
 }
 
+TEST(SelfCollisionFold, WithHandsOneFrameLateNowAndThenTheTowelRestsWithinTheGuarantee) {
+  // The demo's hands come through ~grasp from another node (scripts/fold_demo_driver.py): now and then a
+  // frame starts before their target for it arrives, and the hands keep the last one. Emulated here: the
+  // script skips one frame in ten, drawn from a fixed sequence. At one implicit step a frame such a fold's
+  // line jammed as the upper half was laid down and stayed jammed at rest: its springs at 20-25 % strain
+  // and a stretch ratio of 0.99-1.02 (fold_demo.test's flakiness). Refined, the fold is round: no spring
+  // at rest past kRoundFoldStrain, the stretch ratio 0.92-0.93.
+  constexpr int kLateOneIn = 10;
+  constexpr double kRoundFoldStrain = 0.1;
+  for (unsigned seed = 0; seed < 4; ++seed) {
+    SceneOptions options = loadBuiltinScene("fold");
+    Simulation simulation(options);
+    const ScriptedFold fold;
+    std::mt19937 late(seed);
+    const double end_s = fold.releaseTime_s() + 2.0;
+    FrameReport report;
+    while (simulation.state().time_s < end_s - 1e-9) {
+      const bool letting_go = simulation.state().time_s + options.frameDuration_s() > fold.releaseTime_s();
+      if (letting_go || late() % kLateOneIn != 0) fold.drive(simulation);
+      report = simulation.advanceFrame();
+      ASSERT_TRUE(report.stable) << report.reason;
+    }
+    std::cout << "fold with late hands, sequence " << seed << ": at rest, strain " << report.max_strain
+              << ", stretch ratio " << report.self_collision.stretch_ratio << "\n";
+    EXPECT_LT(report.max_strain, kRoundFoldStrain) << "sequence " << seed;
+    EXPECT_LT(report.self_collision.stretch_ratio, SelfCollision::kGuaranteedStretchRatio) << "sequence " << seed;
+  }
+}
+
 /// A cloth bent into a U on the floor: its first rows lie flat, a half circle of radius `bend_m` turns
 /// it back, and its last rows lie flat 2 bend_m above the first, moving at `upper_velocity`.
 struct ULayer {
