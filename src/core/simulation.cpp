@@ -217,6 +217,8 @@ FrameEnvelope Simulation::frameEnvelope() const {
 
 bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps, FrameReport* report) {
   std::string problem;
+  bool refined_for_guarantee = false;
+  futile_refinement_ = false;
   for (int attempt = 0; attempt < guard_.attempts(options_.guard_retries); ++attempt) {
     const int substeps = std::min(guard_.substeps(first_substeps, attempt), OptionLimits::kMaxSubsteps);
     if (attempt > 0 && substeps == report->substeps_used) break;  // at the cap: the same again would fail again
@@ -244,7 +246,12 @@ bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps,
       problem = "self-collision stretch ratio " + std::to_string(report->self_collision.stretch_ratio) +
                 " (the no-crossing guarantee holds up to " +
                 std::to_string(SelfCollision::kGuaranteedStretchRatio) + ")";
+      refined_for_guarantee = true;
     } else if (problem.empty()) {
+      // A refinement that did not bring the guarantee back (a hand stretching the cloth beside it, which
+      // more substeps do not change) is not worth its cost in the frames after this one.
+      futile_refinement_ = refined_for_guarantee &&
+                           report->self_collision.stretch_ratio > SelfCollision::kGuaranteedStretchRatio;
       cached_energies_ = energies_after;
       cached_strain_ = report->max_strain;
       energy_cache_valid_ = true;
@@ -262,8 +269,9 @@ void Simulation::rememberFrame(const FrameReport& report, int first_substeps, in
   // never add energy, and a result the guard accepts is kept (the diagnostics show the cap was hit).
   if (!options_.autoSubsteps()) return;
   // Start the next frames where this one succeeded: at the scale it started from (half the remembered
-  // one on a trial frame) times the doublings it needed.
-  memory_.auto_scale = std::min(auto_scale * (report.substeps_used / first_substeps), GuardMemory::kMaxScale);
+  // one on a trial frame) times the doublings it needed (none for a futile refinement).
+  const int doublings = futile_refinement_ ? 1 : report.substeps_used / first_substeps;
+  memory_.auto_scale = std::min(auto_scale * doublings, GuardMemory::kMaxScale);
 }
 
 FrameReport Simulation::advanceFrame() {
@@ -331,7 +339,8 @@ FrameReport Simulation::advanceFrame() {
     reason << report.recovery;
   } else if (report.recomputed) {
     reason << "frame " << state_.frame << " was recomputed with " << report.substeps_used << " substeps ("
-           << report.rejection << " before): raise substeps or use substeps: auto";
+           << report.rejection << " before)";
+    if (!options_.autoSubsteps()) reason << ": raise substeps or use substeps: auto";
   } else if (!warning.empty()) {
     reason << warning;
   } else if (report.max_strain > kStrainWarning && report.self_collision.forced == 0) {

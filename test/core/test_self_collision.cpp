@@ -210,6 +210,30 @@ TEST(SelfCollisionFold, WithHandsOneFrameLateNowAndThenTheTowelRestsWithinTheGua
   }
 }
 
+TEST(SelfCollisionRefinement, AutoKeepsNoRefinementThatCannotBringTheGuaranteeBack) {
+  // A hand yanks the towel's corner 3 cm outwards with a stiff grasp: the edges beside it leave the
+  // guarantee at one step and at two alike (the hand's stretch, not the step's). The frame is refined
+  // once, and the next one starts from one step again instead of paying 2x from then on.
+  constexpr double kPull_m = 0.03;
+  constexpr double kStiffGrasp_N_per_m = 2000.0;
+  Simulation simulation(loadBuiltinScene("fold"));
+  GraspRequest yank;
+  yank.id = 1;
+  yank.particle = 0;
+  yank.target_m = simulation.grid().rest_positions_m.col(0) + kPull_m * Eigen::Vector3d(-1.0, -1.0, 0.0).normalized();
+  yank.stiffness_N_per_m = kStiffGrasp_N_per_m;
+  std::string error;
+  ASSERT_TRUE(simulation.grab(yank, &error)) << error;
+  const FrameReport refined = simulation.advanceFrame();
+  ASSERT_TRUE(refined.stable) << refined.reason;
+  EXPECT_TRUE(refined.recomputed);
+  EXPECT_NE(refined.reason.find("self-collision stretch ratio"), std::string::npos) << refined.reason;
+  EXPECT_EQ(refined.substeps_used, 2);
+  EXPECT_GT(refined.self_collision.stretch_ratio, SelfCollision::kGuaranteedStretchRatio);
+  const FrameReport next = simulation.advanceFrame();
+  EXPECT_EQ(next.substeps_used, 1) << next.reason;
+}
+
 /// A cloth bent into a U on the floor: its first rows lie flat, a half circle of radius `bend_m` turns
 /// it back, and its last rows lie flat 2 bend_m above the first, moving at `upper_velocity`.
 struct ULayer {

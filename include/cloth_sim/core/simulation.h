@@ -240,6 +240,9 @@ class Simulation {
   StiffnessBound bound_;     ///< of options_, masses and grasps; recomputed when bound_stale_
   bool bound_stale_ = true;
   int last_substeps_ = 1;
+  /// The frame just computed was refined because it left self-collision's guarantee, and the refined
+  /// result still leaves it: `auto` does not keep the refinement's scale (scratch of advanceFrame).
+  bool futile_refinement_ = false;
   /// Energies and strain at the end of the last accepted frame (= the next frame's start) while
   /// energy_cache_valid_; every change from outside (reset, restore, retune, grab, release, wind) clears it.
   EnergyReport cached_energies_;
