@@ -233,13 +233,17 @@ bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps,
     // table's edge): more substeps follow the impact more closely. Only at the crossing and only one
     // doubling, so a cloth a hand stretches on purpose pays one recomputation and 2x from then on.
     // The same for a frame that takes self-collision's no-crossing guarantee out of force (an edge longer
-    // than it allows): at one implicit step a towel's fold line jams there as the upper half is laid down
-    // (its springs at 20-45 % strain, held by the layers' contacts), and stays jammed at rest; at two it
-    // forms a round fold (measured: doc/PHYSICS.md, "Self-collision").
+    // than it allows) where layers touch: at one implicit step a towel's fold line jams there as the upper
+    // half is laid down (its springs at 20-45 % strain, held by the layers' contacts), and stays jammed at
+    // rest; at two it forms a round fold (measured: doc/PHYSICS.md, "Self-collision"). Only while `auto`'s
+    // scale is below kGuaranteeRefinementScale: a cloth resting near the guarantee's edge crosses it again
+    // and again, and refining each time took the 128x128 fold at rest to 16 steps a frame for good.
     const bool first_of_several = attempt == 0 && guard_.attempts(options_.guard_retries) > 1;
     const bool refine = problem.empty() && options_.autoSubsteps() && first_of_several;
     const bool leaves_guarantee = report->self_collision.stretch_ratio > SelfCollision::kGuaranteedStretchRatio &&
-                                  envelope.stretch_ratio_before <= SelfCollision::kGuaranteedStretchRatio;
+                                  envelope.stretch_ratio_before <= SelfCollision::kGuaranteedStretchRatio &&
+                                  report->self_collision.contacts > 0 &&
+                                  memory_.auto_scale < kGuaranteeRefinementScale;
     if (refine && report->max_strain > kStrainWarning && envelope.strain_before <= kStrainWarning) {
       problem = "over-stretched to " + std::to_string(report->max_strain);
     } else if (refine && leaves_guarantee) {

@@ -210,6 +210,10 @@ class Simulation {
   bool isCalm() const;
   static constexpr double kCalmSpeed_m_per_s = 0.05;
   static constexpr double kCalmStrainFraction = 0.5;
+  /// `auto` refines a frame that takes self-collision's guarantee out of force while its scale is below
+  /// this: the fold's jam needs two steps a frame and the twisted strip's near pairs four (at two, 7 of
+  /// them crossed), while refining without a bound kept the 128x128 fold at rest at 16.
+  static constexpr int kGuaranteeRefinementScale = 4;
   int firstSubsteps(double stable_step_s, int auto_scale, std::string* warning) const;
   /// The energy and strain budgets of the frame about to be computed, from the state and the inputs.
   FrameEnvelope frameEnvelope() const;
