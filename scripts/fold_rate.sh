@@ -19,7 +19,17 @@ export ROS_MASTER_URI=http://localhost:$port ROS_HOSTNAME=localhost
 log=$(mktemp /tmp/fold_rate.XXXXXX.log)
 roslaunch -p "$port" cloth_sim fold.launch rows:="$n" cols:="$n" >"$log" 2>&1 </dev/null &
 launch=$!
-"$ws/devel/lib/cloth_sim/cloth_topic_rate" --wait 20 --skip 0 --seconds "$seconds" /cloth_node/state
+# The rate tool waits for a master without end: a launch that fails (a workspace without the package)
+# must not hang the script, so it gets the measurement's time and a minute more.
+status=0
+timeout $((seconds + 60)) "$ws/devel/lib/cloth_sim/cloth_topic_rate" --wait 20 --skip 0 --seconds "$seconds" \
+  /cloth_node/state || status=$?
+if ! kill -0 "$launch" 2>/dev/null; then
+  echo "fold_rate.sh: roslaunch exited early:" >&2
+  tail -n 3 "$log" >&2
+  exit 1
+fi
 kill -INT "$launch"
 wait "$launch"
 echo "roslaunch log: $log"
+exit "$status"

@@ -251,8 +251,13 @@ SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfColli
     velocities_m_per_s.col(i).setZero();
     ++stats.frozen;
   }
-  stats.stretch_ratio = longestTriangleEdge_m(grid, positions_m) / (floor_m / kCoverFactor);
+  stats.stretch_ratio = selfCollisionStretchRatio(grid, thickness_m, positions_m);
   return stats;
+}
+
+double selfCollisionStretchRatio(const ClothGrid& grid, double thickness_m, const Eigen::Matrix3Xd& positions_m) {
+  const double guaranteed_edge_m = SelfCollision::kFailSafeFraction * thickness_m / SelfCollision::kCoverFactor;
+  return longestTriangleEdge_m(grid, positions_m) / guaranteed_edge_m;
 }
 
 }  // namespace cloth_sim::core

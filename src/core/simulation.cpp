@@ -144,8 +144,17 @@ ContactStats Simulation::integrateFrame(int substeps, StepReport* steps, SelfCol
     state_.time_s = frame_start_s + (k + 1) * step_s;
     force_model_.enforceConstraints(state_.time_s, state_);
     if (!options_.colliders.empty()) {
+      // Static friction's test needs the forces where the step ended (one more evaluation a substep, only
+      // in scenes with fixed colliders and friction).
+      const bool static_friction = options_.contact.friction > 0.0 &&
+                                   !(options_.colliders.planes.empty() && options_.colliders.boxes.empty() &&
+                                     options_.colliders.spheres.empty());
+      if (static_friction) {
+        force_model_.forces(state_.positions_m, state_.velocities_m_per_s, state_.time_s, contact_forces_N_);
+      }
       contacts += resolveContacts(options_.colliders, options_.contact, t0_s, state_.time_s, inverse_mass,
-                                  substep_start_positions_m_, state_.positions_m, state_.velocities_m_per_s);
+                                  substep_start_positions_m_, state_.positions_m, state_.velocities_m_per_s,
+                                  static_friction ? &contact_forces_N_ : nullptr);
       if (!options_.colliders.frames.empty()) {
         contacts += resolveFrameColliders(options_.colliders.frames, inputs_.frame_colliders, options_.contact, t0_s,
                                           state_.time_s, inverse_mass, substep_start_positions_m_, state_.positions_m,
@@ -198,11 +207,18 @@ FrameEnvelope Simulation::frameEnvelope() const {
   scene.kinetic_J = energies_now.kinetic_J;
   scene.elastic_J = energies_now.elastic_J;
   scene.strain_before = energy_cache_valid_ ? cached_strain_ : maxStructuralStrain();
-  return core::frameEnvelope(scene);
+  FrameEnvelope envelope = core::frameEnvelope(scene);
+  if (options_.self_collision.enabled) {
+    envelope.stretch_ratio_before = selfCollisionStretchRatio(
+        grid_, selfCollisionThickness_m(options_.self_collision, grid_), state_.positions_m);
+  }
+  return envelope;
 }
 
 bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps, FrameReport* report) {
   std::string problem;
+  bool refined_for_guarantee = false;
+  futile_refinement_ = false;
   for (int attempt = 0; attempt < guard_.attempts(options_.guard_retries); ++attempt) {
     const int substeps = std::min(guard_.substeps(first_substeps, attempt), OptionLimits::kMaxSubsteps);
     if (attempt > 0 && substeps == report->substeps_used) break;  // at the cap: the same again would fail again
@@ -216,11 +232,30 @@ bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps,
     // `auto` also refines a frame that first stretches the cloth past the warning (a hem caught on a
     // table's edge): more substeps follow the impact more closely. Only at the crossing and only one
     // doubling, so a cloth a hand stretches on purpose pays one recomputation and 2x from then on.
+    // The same for a frame that takes self-collision's no-crossing guarantee out of force (an edge longer
+    // than it allows) where layers touch: at one implicit step a towel's fold line jams there as the upper
+    // half is laid down (its springs at 20-45 % strain, held by the layers' contacts), and stays jammed at
+    // rest; at two it forms a round fold (measured: doc/PHYSICS.md, "Self-collision"). Only while `auto`'s
+    // scale is below kGuaranteeRefinementScale: a cloth resting near the guarantee's edge crosses it again
+    // and again, and refining each time took the 128x128 fold at rest to 16 steps a frame for good.
     const bool first_of_several = attempt == 0 && guard_.attempts(options_.guard_retries) > 1;
-    if (problem.empty() && options_.autoSubsteps() && first_of_several && report->max_strain > kStrainWarning &&
-        envelope.strain_before <= kStrainWarning) {
+    const bool refine = problem.empty() && options_.autoSubsteps() && first_of_several;
+    const bool leaves_guarantee = report->self_collision.stretch_ratio > SelfCollision::kGuaranteedStretchRatio &&
+                                  envelope.stretch_ratio_before <= SelfCollision::kGuaranteedStretchRatio &&
+                                  report->self_collision.contacts > 0 &&
+                                  memory_.auto_scale < kGuaranteeRefinementScale;
+    if (refine && report->max_strain > kStrainWarning && envelope.strain_before <= kStrainWarning) {
       problem = "over-stretched to " + std::to_string(report->max_strain);
+    } else if (refine && leaves_guarantee) {
+      problem = "self-collision stretch ratio " + std::to_string(report->self_collision.stretch_ratio) +
+                " (the no-crossing guarantee holds up to " +
+                std::to_string(SelfCollision::kGuaranteedStretchRatio) + ")";
+      refined_for_guarantee = true;
     } else if (problem.empty()) {
+      // A refinement that did not bring the guarantee back (a hand stretching the cloth beside it, which
+      // more substeps do not change) is not worth its cost in the frames after this one.
+      futile_refinement_ = refined_for_guarantee &&
+                           report->self_collision.stretch_ratio > SelfCollision::kGuaranteedStretchRatio;
       cached_energies_ = energies_after;
       cached_strain_ = report->max_strain;
       energy_cache_valid_ = true;
@@ -238,8 +273,9 @@ void Simulation::rememberFrame(const FrameReport& report, int first_substeps, in
   // never add energy, and a result the guard accepts is kept (the diagnostics show the cap was hit).
   if (!options_.autoSubsteps()) return;
   // Start the next frames where this one succeeded: at the scale it started from (half the remembered
-  // one on a trial frame) times the doublings it needed.
-  memory_.auto_scale = std::min(auto_scale * (report.substeps_used / first_substeps), GuardMemory::kMaxScale);
+  // one on a trial frame) times the doublings it needed (none for a futile refinement).
+  const int doublings = futile_refinement_ ? 1 : report.substeps_used / first_substeps;
+  memory_.auto_scale = std::min(auto_scale * doublings, GuardMemory::kMaxScale);
 }
 
 FrameReport Simulation::advanceFrame() {
@@ -307,15 +343,19 @@ FrameReport Simulation::advanceFrame() {
     reason << report.recovery;
   } else if (report.recomputed) {
     reason << "frame " << state_.frame << " was recomputed with " << report.substeps_used << " substeps ("
-           << report.rejection << " before): raise substeps or use substeps: auto";
+           << report.rejection << " before)";
+    if (!options_.autoSubsteps()) reason << ": raise substeps or use substeps: auto";
   } else if (!warning.empty()) {
     reason << warning;
-  } else if (report.self_collision.forced > 0) {
-    // Not a crossing the simulation made, but not one to pass over in silence either.
+  } else if (report.max_strain > kStrainWarning && report.self_collision.forced == 0) {
+    reason << "over-stretched: structural strain " << report.max_strain << " > " << kStrainWarning;
+  }
+  if (report.self_collision.forced > 0) {
+    // Not a crossing the simulation made, but not one to pass over in silence either, whatever else the
+    // frame reports (a hand dragging the cloth through itself also stretches it: the guard refines it).
+    if (reason.tellp() > 0) reason << "; ";
     reason << "a pinned or gripped particle pulled the cloth through itself (" << report.self_collision.forced
            << " particle pairs the self-collision could not keep apart)";
-  } else if (report.max_strain > kStrainWarning) {
-    reason << "over-stretched: structural strain " << report.max_strain << " > " << kStrainWarning;
   }
   report.reason = reason.str();
   return report;

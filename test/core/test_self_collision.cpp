@@ -98,6 +98,9 @@ struct FoldOutcome {
   double rest_creep_m_per_s = 0.0;  ///< fastest particle over the last second, by displacement
   double closest_layers_m = 0.0;    ///< closest exempt-free particle pair at the end
   double thickness_m = 0.0;
+  /// Self-collision's stretch ratio, the largest a frame ended with once the hands are past the top of
+  /// their arc (laying the upper half down, holding, letting go, at rest).
+  double worst_stretch_ratio = 0.0;
 };
 
 FoldOutcome runFold(int side, IntegratorKind integrator = IntegratorKind::kImplicitEuler) {
@@ -117,6 +120,9 @@ FoldOutcome runFold(int side, IntegratorKind integrator = IntegratorKind::kImpli
     const FrameReport report = simulation.advanceFrame();
     EXPECT_TRUE(report.stable) << report.reason;
     outcome.forced += report.self_collision.forced;
+    if (simulation.state().time_s > fold.start_s + fold.carry_s / 2.0) {
+      outcome.worst_stretch_ratio = std::max(outcome.worst_stretch_ratio, report.self_collision.stretch_ratio);
+    }
     outcome.worst_crossings = std::max(outcome.worst_crossings, crossings(simulation));
     if (window_start.size() == 0 && simulation.state().time_s >= fold.releaseTime_s() + settle_s - 1e-9) {
       window_start = simulation.state().positions_m;
@@ -142,13 +148,18 @@ FoldOutcome runFold(int side, IntegratorKind integrator = IntegratorKind::kImpli
   std::cout << "fold " << side << "x" << side << ": crossings " << outcome.worst_crossings << ", forced " << outcome.forced
             << ", mirror gap " << outcome.mean_mirror_gap_m << " m (h " << outcome.thickness_m << "), above "
             << outcome.moved_half_above << ", creep " << outcome.rest_creep_m_per_s << " m/s, closest "
-            << outcome.closest_layers_m << " m\n";
+            << outcome.closest_layers_m << " m, stretch ratio at worst " << outcome.worst_stretch_ratio << "\n";
   return outcome;
 }
 
 void expectAFold(const FoldOutcome& outcome, double creep_bound_m_per_s) {
   EXPECT_EQ(outcome.worst_crossings, 0);
   EXPECT_EQ(outcome.forced, 0);
+  // The guarantee in force in every frame from where the upper half comes down: laying it down, the
+  // fold line's springs took it out of force at one implicit step (stretch ratio 1.13 at 24 x 24,
+  // measured), and `auto` refines such a frame (Simulation::computeFrame). Not before: lifting the
+  // corners, the hands themselves stretch the cloth beside them (1.002 at 48 x 48, with two substeps too).
+  EXPECT_LE(outcome.worst_stretch_ratio, SelfCollision::kGuaranteedStretchRatio);
   // The moved half lies on the other: on top, within a few thicknesses of its mirror image.
   EXPECT_GE(outcome.moved_half_above, 0.95);
   EXPECT_LT(outcome.mean_mirror_gap_m, 3.0 * outcome.thickness_m);
@@ -157,12 +168,10 @@ void expectAFold(const FoldOutcome& outcome, double creep_bound_m_per_s) {
   EXPECT_GE(outcome.closest_layers_m, 0.9 * outcome.thickness_m);
 }
 
-/// The issue asks that each particle of a folded towel at rest move less than 1 mm per second. Not met:
-/// the folded towel drifts over the floor as a whole at 1.5-1.7 mm/s (24 x 24 and 48 x 48, measured;
-/// issue 15's note), so this bound is twice the issue's. The drift is the floor's friction, which stops
-/// velocities but not the step's own slide (doc/PHYSICS.md, "Collisions (§4)", with what was tried). It still
-/// catches a towel that jitters or slides apart (5-100 mm/s before the fixes in self_collision.cpp).
-constexpr double kRestCreep_m_per_s = 2e-3;
+/// The issue's bound: each particle of a folded towel at rest moves less than 1 mm per second. Measured:
+/// 6e-17 m/s at 24 x 24, 2e-5 m/s at 48 x 48, since static friction puts back what the floor holds
+/// (contact.cpp, respondAndTestStick); before, the whole towel drifted at 0.5-1.3 mm/s.
+constexpr double kRestCreep_m_per_s = 1e-3;
 
 TEST(SelfCollisionFold, A24x24TowelFoldedInHalfNeverCrossesItselfAndLiesFolded) {
   expectAFold(runFold(24), kRestCreep_m_per_s);
@@ -170,6 +179,35 @@ TEST(SelfCollisionFold, A24x24TowelFoldedInHalfNeverCrossesItselfAndLiesFolded) 
 
 TEST(SelfCollisionFold, A48x48TowelFoldedInHalfNeverCrossesItselfAndLiesFolded) {
   expectAFold(runFold(48), kRestCreep_m_per_s);
+}
+
+TEST(SelfCollisionFold, WithHandsOneFrameLateNowAndThenTheTowelRestsWithinTheGuarantee) {
+  // The demo's hands come through ~grasp from another node (scripts/fold_demo_driver.py): now and then a
+  // frame starts before their target for it arrives, and the hands keep the last one. Emulated here: the
+  // script skips one frame in ten, drawn from a fixed sequence. At one implicit step a frame such a fold's
+  // line jammed as the upper half was laid down and stayed jammed at rest: its springs at 20-25 % strain
+  // and a stretch ratio of 0.99-1.02 (fold_demo.test's flakiness). Refined, the fold is round: no spring
+  // at rest past kRoundFoldStrain, the stretch ratio 0.92-0.93.
+  constexpr int kLateOneIn = 10;
+  constexpr double kRoundFoldStrain = 0.1;
+  for (unsigned seed = 0; seed < 4; ++seed) {
+    SceneOptions options = loadBuiltinScene("fold");
+    Simulation simulation(options);
+    const ScriptedFold fold;
+    std::mt19937 late(seed);
+    const double end_s = fold.releaseTime_s() + 2.0;
+    FrameReport report;
+    while (simulation.state().time_s < end_s - 1e-9) {
+      const bool letting_go = simulation.state().time_s + options.frameDuration_s() > fold.releaseTime_s();
+      if (letting_go || late() % kLateOneIn != 0) fold.drive(simulation);
+      report = simulation.advanceFrame();
+      ASSERT_TRUE(report.stable) << report.reason;
+    }
+    std::cout << "fold with late hands, sequence " << seed << ": at rest, strain " << report.max_strain
+              << ", stretch ratio " << report.self_collision.stretch_ratio << "\n";
+    EXPECT_LT(report.max_strain, kRoundFoldStrain) << "sequence " << seed;
+    EXPECT_LT(report.self_collision.stretch_ratio, SelfCollision::kGuaranteedStretchRatio) << "sequence " << seed;
+  }
 }
 
 /// A cloth bent into a U on the floor: its first rows lie flat, a half circle of radius `bend_m` turns
@@ -309,7 +347,7 @@ TEST(SelfCollisionTwist, AStripTwistedByTwoHandsTurningOppositeWaysNeverPassesIt
   o.pins.clear();
   o.gravity_m_per_s2.setZero();
   // The paper's bend springs: the two hands wind the strip into a rope, not crease it.
-o.self_collision.enabled = true;
+  o.self_collision.enabled = true;
   o.grasp_stiffness_N_per_m = 500.0;
   Simulation simulation(o);
   const ClothGrid& grid = simulation.grid();
@@ -354,11 +392,12 @@ o.self_collision.enabled = true;
     worst_all = std::max(worst_all, static_cast<int>(pairs.size()));
   }
   // The guarantee: no two triangles further apart on the rest grid than the exempt distance cross. Near
-  // ones (a crease within 1.6 thicknesses) are the bend springs' to keep apart, and here they do not
-  // always: one pair at the strip's edge crossed in one frame (21 on an 8 x 32 strip, whose default
-  // thickness is a third of its width); issue 15's note gives the count, printed below.
+  // ones (a crease within 1.6 thicknesses) are the bend springs' to keep apart: they do here since `auto`
+  // refines a frame that takes the guarantee out of force (before, one pair at the strip's edge crossed
+  // in one frame, where the hands had stretched it past the guarantee's edge length).
   std::cout << "twist: " << worst_all << " crossing pairs at worst, " << worst_far << " of them far apart on the grid\n";
   EXPECT_EQ(worst_far, 0);
+  EXPECT_EQ(worst_all, 0);
 }
 
 TEST(SelfCollisionSnapshot, AFoldRestoredMidwayContinuesBitForBit) {
@@ -400,6 +439,38 @@ TEST(SelfCollisionOff, ASceneWithoutItComputesTheSameBitsAsBefore) {
     EXPECT_EQ(report.self_collision.candidate_pairs, 0);
   }
   EXPECT_TRUE((a.state().positions_m.array() == b.state().positions_m.array()).all());
+}
+
+TEST(SelfCollisionRefinement, AutoKeepsNoRefinementThatCannotBringTheGuaranteeBack) {
+  // The upper layer of a folded cloth rests on the lower one, which lies on the floor; a hand yanks the
+  // lower layer's corner 3 cm outwards with a stiff grasp. The edges beside the hand leave the guarantee
+  // at one step and at two alike (the hand's stretch, not the step's): the frame is refined once, and the
+  // next one starts from one step again instead of paying twice as much from then on.
+  constexpr double kPull_m = 0.03;
+  constexpr double kStiffGrasp_N_per_m = 2000.0;
+  constexpr int kRows = 40;
+  constexpr int kCols = 16;
+  const double thickness_m = kDefaultThicknessPerDiagonal * std::sqrt(2.0) * 0.4 / (kCols - 1);
+  ULayer u = uShapedCloth(kRows, kCols, thickness_m / 2.0, Eigen::Vector3d::Zero());
+  Simulation simulation(u.options);
+  ASSERT_NEAR(selfCollisionThickness_m(u.options.self_collision, simulation.grid()), thickness_m, 1e-12);
+  std::string error;
+  ASSERT_TRUE(simulation.restoreState(u.state, &error)) << error;
+  GraspRequest yank;
+  yank.id = 1;
+  yank.particle = simulation.grid().index(0, 0);
+  yank.target_m = simulation.state().positions_m.col(yank.particle) + kPull_m * Eigen::Vector3d(-1.0, -1.0, 0.0).normalized();
+  yank.stiffness_N_per_m = kStiffGrasp_N_per_m;
+  ASSERT_TRUE(simulation.grab(yank, &error)) << error;
+  const FrameReport refined = simulation.advanceFrame();
+  ASSERT_TRUE(refined.stable) << refined.reason;
+  EXPECT_GT(refined.self_collision.contacts, 0);
+  EXPECT_TRUE(refined.recomputed);
+  EXPECT_NE(refined.reason.find("self-collision stretch ratio"), std::string::npos) << refined.reason;
+  EXPECT_EQ(refined.substeps_used, 2);
+  EXPECT_GT(refined.self_collision.stretch_ratio, SelfCollision::kGuaranteedStretchRatio);
+  const FrameReport next = simulation.advanceFrame();
+  EXPECT_EQ(next.substeps_used, 1) << next.reason;
 }
 
 TEST(SelfCollisionForced, TwoGrippersDraggingTheLayersThroughEachOtherAreReportedNotHidden) {

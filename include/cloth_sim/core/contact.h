@@ -89,10 +89,15 @@ struct ColliderSet {
 };
 
 /// Resolves contacts after a substep from t0 to t1: positions/velocities are the substep's result,
-/// previous_positions_m its start. Particles with zero inverse mass (pinned) are left alone.
+/// previous_positions_m its start. Particles with zero inverse mass (pinned) are left alone. With
+/// forces_N, the forces on each particle at the substep's end (N, world frame), a particle that static
+/// friction holds (stopped along the surface by the response, and pushed along it by less than friction
+/// x the normal force) is also put back where it started along the surface: without them (null) a
+/// particle held by static friction still slides the step's own F h^2 / m each substep (contact.cpp).
 ContactStats resolveContacts(const ColliderSet& colliders, const ContactOptions& options, double t0_s, double t1_s,
                              const Eigen::VectorXd& inverse_mass_per_kg, const Eigen::Matrix3Xd& previous_positions_m,
-                             Eigen::Matrix3Xd& positions_m, Eigen::Matrix3Xd& velocities_m_per_s);
+                             Eigen::Matrix3Xd& positions_m, Eigen::Matrix3Xd& velocities_m_per_s,
+                             const Eigen::Matrix3Xd* forces_N = nullptr);
 
 /// Resolves contacts with colliders on moving, turning frames after a substep from t0 to t1 (the same
 /// band, response and friction as resolveContacts). Each particle's substep is seen in the shape's own

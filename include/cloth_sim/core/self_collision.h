@@ -70,7 +70,7 @@ class SelfCollision {
   /// Pairs closer than this many thicknesses on the rest grid are exempt. Not 1: the cloth between two
   /// particles an arc s apart around a fold is a chord shorter than s, so pairs just over h apart on the
   /// grid could never be h apart in a fold (they fought it and crept). A fold of radius h / 2 puts particles
-  /// pi h / 2 apart on the grid h apart in space: 2 leaves room for that.
+  /// pi h / 2 apart on the grid h apart in space: 1.6 just leaves room for that (pi / 2 = 1.571).
   static constexpr double kExemptRestThicknesses = 1.6;
   /// Gauss-Seidel sweeps of the response per substep.
   static constexpr int kResponseSweeps = 4;
@@ -80,6 +80,8 @@ class SelfCollision {
   /// the two of a particle of each (half an edge, plus the farthest a point of a triangle is from its
   /// nearest vertex, at most the longest edge / sqrt(3)).
   static constexpr double kCoverFactor = 0.5 + 0.57735026918962576;
+  /// The stretch ratio (SelfCollisionStats::stretch_ratio) up to which the guarantee holds.
+  static constexpr double kGuaranteedStretchRatio = 1.0;
 
   /// Resolves self-contacts after a substep ending at time_s: start_m are the particles at the
   /// substep's start (free of self-contact as this leaves them), positions and velocities its result
@@ -119,6 +121,11 @@ class SelfCollision {
   std::vector<char> moved_;
   std::vector<char> frozen_;
 };
+
+/// Self-collision's stretch ratio for particles at positions_m and thickness h: the longest triangle edge
+/// over the longest for which the guarantee holds (SelfCollision::kFailSafeFraction x h / kCoverFactor).
+/// Above 1 the no-crossing guarantee is not in force.
+double selfCollisionStretchRatio(const ClothGrid& grid, double thickness_m, const Eigen::Matrix3Xd& positions_m);
 
 /// The closest two points moving in straight lines come: a from a0 to a1, b from b0 to b1, m.
 double closestApproach_m(const Eigen::Vector3d& a0, const Eigen::Vector3d& a1, const Eigen::Vector3d& b0,

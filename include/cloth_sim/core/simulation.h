@@ -210,6 +210,10 @@ class Simulation {
   bool isCalm() const;
   static constexpr double kCalmSpeed_m_per_s = 0.05;
   static constexpr double kCalmStrainFraction = 0.5;
+  /// `auto` refines a frame that takes self-collision's guarantee out of force while its scale is below
+  /// this: the fold's jam needs two steps a frame and the twisted strip's near pairs four (at two, 7 of
+  /// them crossed), while refining without a bound kept the 128x128 fold at rest at 16.
+  static constexpr int kGuaranteeRefinementScale = 4;
   int firstSubsteps(double stable_step_s, int auto_scale, std::string* warning) const;
   /// The energy and strain budgets of the frame about to be computed, from the state and the inputs.
   FrameEnvelope frameEnvelope() const;
@@ -240,6 +244,9 @@ class Simulation {
   StiffnessBound bound_;     ///< of options_, masses and grasps; recomputed when bound_stale_
   bool bound_stale_ = true;
   int last_substeps_ = 1;
+  /// The frame just computed was refined because it left self-collision's guarantee, and the refined
+  /// result still leaves it: `auto` does not keep the refinement's scale (scratch of advanceFrame).
+  bool futile_refinement_ = false;
   /// Energies and strain at the end of the last accepted frame (= the next frame's start) while
   /// energy_cache_valid_; every change from outside (reset, restore, retune, grab, release, wind) clears it.
   EnergyReport cached_energies_;
@@ -248,6 +255,7 @@ class Simulation {
   ClothState state_;
   ClothState frame_start_;               ///< rollback point, scratch
   Eigen::Matrix3Xd substep_start_positions_m_;  ///< scratch for the contact sweep
+  Eigen::Matrix3Xd contact_forces_N_;           ///< scratch: the forces static friction's test reads
   Eigen::Matrix3Xf colors_;
   std::unique_ptr<Integrator> integrator_;
   SelfCollision self_collision_;  ///< scratch only: nothing carried from one substep to the next

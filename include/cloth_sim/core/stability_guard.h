@@ -61,6 +61,8 @@ struct FrameEnvelope {
   double strain_before = 0.0;       ///< largest structural strain at the frame's start
   /// Strain the scene's largest force (weight, grasps, wind) can add to a structural spring: F / (k L).
   double strain_allowance = 0.0;
+  /// Self-collision's stretch ratio at the frame's start (selfCollisionStretchRatio; 0 when it is off).
+  double stretch_ratio_before = 0.0;
 };
 
 /// What a frame's budgets are made of: the scene as it stands at the frame's start.
