@@ -9,6 +9,9 @@
 ws=${1:?usage: fold_rate.sh WORKSPACE N [SECONDS]}
 n=${2:?usage: fold_rate.sh WORKSPACE N [SECONDS]}
 seconds=${3:-8}
+case $seconds in
+  '' | *[!0-9]* | 0) echo "fold_rate.sh: SECONDS must be a whole number above 0, not '$seconds'" >&2; exit 2 ;;
+esac
 # Debian's ROS tools are /usr/bin/python3 scripts; a pyenv python3 earlier on PATH has no ROS modules.
 export PATH=/usr/bin:/bin:$PATH
 export ROS_HOME=${ROS_HOME:-$ws/ros_home}

@@ -66,23 +66,26 @@ struct Response {
 /// of issue 15 drifted over the floor at 0.5-1.5 mm/s. A particle static friction holds is therefore
 /// also put back where it started along the surface (takeBackSlide). Held means: the response stopped
 /// it along the surface, AND the forces on it push along the surface by less than friction x the
-/// normal force the contact applies (F_t h / m <= mu x the normal speed removed). The second test is
+/// normal force the contact applies (F_t h / m <= mu x the normal velocity change). The second test is
 /// what the velocity alone cannot tell: the implicit step damps a stiff spring's pull to about
 /// F / (h k) of speed, so where a hand peels a towel off the floor the velocity test holds the peel
 /// front against any pull, and holding it in place stretched the springs there 44 % (measured).
 Response respondAndTestStick(const Eigen::Vector3d& normal, const Eigen::Vector3d& surface_velocity_m_per_s,
                              const ContactOptions& options, const StickInputs& stick, Eigen::Index particle,
                              Eigen::Ref<Eigen::Vector3d> velocity_m_per_s) {
-  const double approach_m_per_s = -(velocity_m_per_s - surface_velocity_m_per_s).dot(normal);
+  // The same test as collisionResponse's (whether it keeps any sliding), decided before the response
+  // from the same speeds: after it, a bounce's normal part leaves rounding in the tangential one.
+  const Eigen::Vector3d relative = velocity_m_per_s - surface_velocity_m_per_s;
+  const double normal_speed = relative.dot(normal);
+  const double normal_change_m_per_s = (1.0 + options.restitution) * -normal_speed;
+  const bool stopped = (relative - normal_speed * normal).norm() <= options.friction * normal_change_m_per_s;
   Response response;
   response.approaching = respond(normal, surface_velocity_m_per_s, options, velocity_m_per_s);
-  if (!response.approaching || stick.forces_N == nullptr) return response;
-  const Eigen::Vector3d after = velocity_m_per_s - surface_velocity_m_per_s;
-  if ((after - after.dot(normal) * normal).squaredNorm() > 0.0) return response;  // sliding: kinetic friction
+  if (!response.approaching || stick.forces_N == nullptr || !stopped) return response;  // sliding: kinetic
   const Eigen::Vector3d force_N = stick.forces_N->col(particle);
   const double along_surface_N = (force_N - force_N.dot(normal) * normal).norm();
   response.stuck = along_surface_N * (*stick.inverse_mass_per_kg)[particle] * stick.step_s <=
-                   options.friction * approach_m_per_s;
+                   options.friction * normal_change_m_per_s;
   return response;
 }
 

@@ -131,6 +131,11 @@ ContactStats Simulation::integrateFrame(int substeps, StepReport* steps, SelfCol
   const double step_s = options_.frameDuration_s() / substeps;
   const double frame_start_s = state_.time_s;
   const Eigen::VectorXd& inverse_mass = force_model_.inverseMass_per_kg();
+  // Static friction's test needs the forces where each step ended: one more evaluation a substep, only
+  // in scenes with planes, boxes or spheres and friction (robot links on frames keep the velocity test).
+  const ColliderSet& colliders = options_.colliders;
+  const bool static_friction = options_.contact.friction > 0.0 &&
+                               !(colliders.planes.empty() && colliders.boxes.empty() && colliders.spheres.empty());
   for (int k = 0; k < substeps; ++k) {
     const double t0_s = state_.time_s;
     const bool self_colliding = options_.self_collision.enabled;
@@ -144,11 +149,6 @@ ContactStats Simulation::integrateFrame(int substeps, StepReport* steps, SelfCol
     state_.time_s = frame_start_s + (k + 1) * step_s;
     force_model_.enforceConstraints(state_.time_s, state_);
     if (!options_.colliders.empty()) {
-      // Static friction's test needs the forces where the step ended (one more evaluation a substep, only
-      // in scenes with fixed colliders and friction).
-      const bool static_friction = options_.contact.friction > 0.0 &&
-                                   !(options_.colliders.planes.empty() && options_.colliders.boxes.empty() &&
-                                     options_.colliders.spheres.empty());
       if (static_friction) {
         force_model_.forces(state_.positions_m, state_.velocities_m_per_s, state_.time_s, contact_forces_N_);
       }
@@ -239,7 +239,9 @@ bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps,
     // scale is below kGuaranteeRefinementScale: a cloth resting near the guarantee's edge crosses it again
     // and again, and refining each time took the 128x128 fold at rest to 16 steps a frame for good.
     const bool first_of_several = attempt == 0 && guard_.attempts(options_.guard_retries) > 1;
-    const bool refine = problem.empty() && options_.autoSubsteps() && first_of_several;
+    // At the cap there is no finer attempt: refining would throw away a result the guard accepted.
+    const bool refine = problem.empty() && options_.autoSubsteps() && first_of_several &&
+                        first_substeps < OptionLimits::kMaxSubsteps;
     const bool leaves_guarantee = report->self_collision.stretch_ratio > SelfCollision::kGuaranteedStretchRatio &&
                                   envelope.stretch_ratio_before <= SelfCollision::kGuaranteedStretchRatio &&
                                   report->self_collision.contacts > 0 &&
@@ -273,8 +275,14 @@ void Simulation::rememberFrame(const FrameReport& report, int first_substeps, in
   // never add energy, and a result the guard accepts is kept (the diagnostics show the cap was hit).
   if (!options_.autoSubsteps()) return;
   // Start the next frames where this one succeeded: at the scale it started from (half the remembered
-  // one on a trial frame) times the doublings it needed (none for a futile refinement).
-  const int doublings = futile_refinement_ ? 1 : report.substeps_used / first_substeps;
+  // one on a trial frame) times the doublings it needed.
+  const int doublings = report.substeps_used / first_substeps;
+  if (futile_refinement_) {
+    // The refinement's own doubling bought nothing: drop it, keep any the guard needed after it, and lower
+    // nothing (on a trial frame the first computation was not accepted as it stood).
+    memory_.auto_scale = std::max(memory_.auto_scale, std::min(auto_scale * doublings / 2, GuardMemory::kMaxScale));
+    return;
+  }
   memory_.auto_scale = std::min(auto_scale * doublings, GuardMemory::kMaxScale);
 }
 
