@@ -20,6 +20,7 @@
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <limits>
 #include <string>
 
 namespace cloth_sim::core {
@@ -101,6 +102,11 @@ struct GuardMemory {
   /// a cloth at rest kept 64 substeps a frame for good (issue 18).
   int auto_scale = 1;
   int consecutive_rollbacks = 0;  ///< frames rolled back in a row (recovery starts at kRollbacksBeforeRecovery)
+  /// The farthest any particle moved in the last accepted frame, over the frame's duration (m/s; infinity
+  /// before the first): whether the cloth is calm enough for a trial at half the scale. Measured from
+  /// positions, not velocities: a layer resting on another on the floor carries the upper layer's weight
+  /// as a velocity the floor takes off every step, and a folded towel at rest never looked calm by it.
+  double frame_motion_m_per_s = std::numeric_limits<double>::infinity();
   /// Largest auto_scale: a frame that needs more than 64x the predicted substeps is not a prediction problem.
   static constexpr int kMaxScale = 1 << 6;
   /// Frames (by number) on which a scale above 1 is tried at half: 16 frames, 0.32 s at 50 Hz, so the
