@@ -130,21 +130,7 @@ SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfColli
   };
 
   // 1. Response.
-  const double reach_m = kResponseReach * thickness_m;
-  candidatePairs(start_m, positions_m, reach_m, thickness_m, keep, apart, &pairs_);
-  // The boxes pair every particle within the reach along each axis, up to sqrt(3) reaches apart; the
-  // sweeps visit every pair kept, kResponseSweeps times. Only pairs whose paths come within
-  // kResponsePathReach can be pushed (the sweeps' own pushes bring a pair closer by less than that margin
-  // over the thickness): in a folded towel at rest, half of the boxes' pairs (the far particles of the
-  // other layer in the boxes' corners, and the same layer's ring just beyond the exemption).
-  const double path_reach_m = kResponsePathReach * thickness_m;
-  pairs_.erase(std::remove_if(pairs_.begin(), pairs_.end(),
-                              [&](const std::pair<int, int>& pair) {
-                                const auto [i, j] = pair;
-                                return closestApproach_m(start_m.col(i), positions_m.col(i), start_m.col(j),
-                                                         positions_m.col(j)) > path_reach_m;
-                              }),
-               pairs_.end());
+  candidatePairs(start_m, positions_m, kResponseReach * thickness_m, thickness_m, keep, apart, &pairs_);
   stats.candidate_pairs = static_cast<int>(pairs_.size());
   pushed_m_.assign(pairs_.size(), 0.0);
   normals_.assign(pairs_.size(), Eigen::Vector3d::Zero());

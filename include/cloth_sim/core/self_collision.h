@@ -95,11 +95,6 @@ class SelfCollision {
   /// Reach of the response's candidates, in thicknesses: a pair the sweeps push towards each other is
   /// still seen.
   static constexpr double kResponseReach = 1.5;
-  /// Of the response's candidates, only pairs whose straight paths come within this many thicknesses are
-  /// kept. Not kResponseReach: with 1.5 the strip twisted by two hands (SelfCollisionTwist) crossed at
-  /// 3 near pairs, where with the boxes alone (up to 2.6 thicknesses apart) and with 1.8, 2.1 and 2.55 it
-  /// crossed at none.
-  static constexpr double kResponsePathReach = 1.8;
   /// The wider list's slack, in thicknesses: it serves while no particle is further than this (along any
   /// axis) from where the list was built, at the start and the end of a substep.
   static constexpr double kListSlack = 0.5;
