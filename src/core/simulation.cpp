@@ -123,6 +123,8 @@ void Simulation::reset() {
 bool Simulation::restoreState(const ClothState& state, std::string* error) {
   SimulationSnapshot current = snapshot();
   current.state = state;
+  // The last frame's motion was the old state's: the new one has not been seen moving.
+  current.guard.frame_motion_m_per_s = GuardMemory().frame_motion_m_per_s;
   return restore(current, error);
 }
 

@@ -124,7 +124,8 @@ class Simulation {
 
   /// Back to the scene's initial state: grasps released, pins re-hooked. Tuning (retune, wind) is kept.
   void reset();
-  /// Replaces the state, keeping options and inputs; false with *error (state unchanged) if it would not
+  /// Replaces the state, keeping options, inputs and `auto`'s scale (not the last frame's motion: the
+  /// state is not calm until a frame of it has run); false with *error (state unchanged) if it would not
   /// pass restore(): wrong particle count, non-finite or out-of-bound values.
   bool restoreState(const ClothState& state, std::string* error);
 
