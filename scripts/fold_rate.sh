@@ -1,7 +1,7 @@
 #!/bin/bash
 # The node's ~state rate while the fold demo folds (issue 15): launch/fold.launch at N x N on a master of
-# its own, ~state counted by the C++ cloth_topic_rate over the first SECONDS of the run (the fold itself
-# takes 2.2 s of simulated time, then the towel settles).
+# its own, ~state counted by the C++ cloth_topic_rate over SECONDS from the first message, or from SKIP
+# seconds after it (the fold itself takes 2.2 s of simulated time, then the towel settles).
 #
 #   scripts/fold_rate.sh WORKSPACE N [SECONDS]
 #   SKIP=S scripts/fold_rate.sh WORKSPACE N [SECONDS]   # count from S s after the first message (the towel at rest)

@@ -178,8 +178,10 @@ double Simulation::frameMotion_m_per_s() const {
   return (state_.positions_m - frame_start_.positions_m).colwise().norm().maxCoeff() / options_.frameDuration_s();
 }
 
-bool Simulation::isCalm(double motion_m_per_s) const {
-  return motion_m_per_s <= kCalmSpeed_m_per_s && maxStructuralStrain() <= kCalmStrainFraction * kStrainWarning;
+bool Simulation::calmStrain(double strain) { return strain <= kCalmStrainFraction * kStrainWarning; }
+
+bool Simulation::isCalm(double motion_m_per_s, double strain) {
+  return motion_m_per_s <= kCalmSpeed_m_per_s && calmStrain(strain);
 }
 
 int Simulation::frameAutoScale() const {
@@ -187,7 +189,7 @@ int Simulation::frameAutoScale() const {
   // what needed them, and a trial there would only cost a recomputation.
   const bool trial = memory_.auto_scale > 1 && options_.guard_retries &&
                      (state_.frame + 1) % GuardMemory::kScaleTrialFrames == 0 &&
-                     isCalm(memory_.frame_motion_m_per_s);
+                     isCalm(memory_.frame_motion_m_per_s, maxStructuralStrain());
   return trial ? memory_.auto_scale / 2 : memory_.auto_scale;
 }
 
@@ -323,13 +325,12 @@ FrameReport Simulation::advanceFrame() {
   frame_start_ = state_;
   const FrameEnvelope envelope = frameEnvelope();
   bool accepted = computeFrame(envelope, first_substeps, &report);
+  double motion_m_per_s = accepted ? frameMotion_m_per_s() : 0.0;
   if (accepted && auto_scale < memory_.auto_scale && report.substeps_used == first_substeps &&
-      (frameMotion_m_per_s() > kTrialSettleSpeed_m_per_s || maxStructuralStrain() > kCalmStrainFraction * kStrainWarning ||
-       leavesGuarantee(report, envelope))) {
+      (motion_m_per_s * options_.frameDuration_s() > kTrialSettle_m || !calmStrain(report.max_strain))) {
     // A trial the guard accepts may still stir the cloth (a hem on a table's edge jitters at one implicit
-    // step where it rests at two) or take self-collision's guarantee out of force: unless the cloth stays
-    // about as calm and the guarantee holds, the frame is computed again at the remembered scale and the
-    // scale kept.
+    // step where it rests at two): unless the cloth stays about as calm, the frame is computed again at
+    // the remembered scale and the scale kept.
     state_ = frame_start_;
     energy_cache_valid_ = false;
     auto_scale = memory_.auto_scale;
@@ -339,12 +340,13 @@ FrameReport Simulation::advanceFrame() {
     again.stability_margin = report.stability_margin;
     report = again;
     accepted = computeFrame(envelope, first_substeps, &report);
+    motion_m_per_s = accepted ? frameMotion_m_per_s() : 0.0;
   }
   report.recomputed = accepted && report.substeps_used != first_substeps;
   last_substeps_ = report.substeps_used;
   if (accepted) {
     rememberFrame(report, first_substeps, auto_scale);
-    memory_.frame_motion_m_per_s = frameMotion_m_per_s();
+    memory_.frame_motion_m_per_s = motion_m_per_s;
     memory_.consecutive_rollbacks = 0;
   } else if (++memory_.consecutive_rollbacks >= GuardMemory::kRollbacksBeforeRecovery) {
     accepted = recover(envelope, &report);

@@ -103,7 +103,8 @@ struct GuardMemory {
   int auto_scale = 1;
   int consecutive_rollbacks = 0;  ///< frames rolled back in a row (recovery starts at kRollbacksBeforeRecovery)
   /// The farthest any particle moved in the last accepted frame, over the frame's duration (m/s; infinity
-  /// before the first): whether the cloth is calm enough for a trial at half the scale. Measured from
+  /// until a frame is accepted after a reset, retune, recovery or restoreState, or after loading a state
+  /// file older than version 4): whether the cloth is calm enough for a trial at half the scale. Measured from
   /// positions, not velocities: a layer resting on another on the floor carries the upper layer's weight
   /// as a velocity the floor takes off every step, and a folded towel at rest never looked calm by it.
   double frame_motion_m_per_s = std::numeric_limits<double>::infinity();
@@ -112,7 +113,7 @@ struct GuardMemory {
   /// Frames (by number) on which a scale above 1 is tried at half: 16 frames, 0.32 s at 50 Hz, so the
   /// largest scale comes back to 1 in 6 trials (about 2 s) once the cloth is calm, and a cloth that does
   /// need the scale pays one recomputed frame in 16. By frame number, so a restored run tries the same
-  /// frames (save/restore stays bit-exact with no more memory in the file).
+  /// frames (with frame_motion_m_per_s, which the file keeps: save/restore stays bit-exact).
   static constexpr std::uint64_t kScaleTrialFrames = 16;
   /// Frames rolled back in a row before the simulation recovers by itself (switches to implicit Euler,
   /// and resets the scene if even that cannot compute a plausible frame).
