@@ -1,9 +1,10 @@
 #!/bin/bash
 # The node's ~state rate while the fold demo folds (issue 15): launch/fold.launch at N x N on a master of
-# its own, ~state counted by the C++ cloth_topic_rate over the first SECONDS of the run (the fold itself
-# takes 2.2 s of simulated time, then the towel settles).
+# its own, ~state counted by the C++ cloth_topic_rate over SECONDS from the first message, or from SKIP
+# seconds after it (the fold itself takes 2.2 s of simulated time, then the towel settles).
 #
 #   scripts/fold_rate.sh WORKSPACE N [SECONDS]
+#   SKIP=S scripts/fold_rate.sh WORKSPACE N [SECONDS]   # count from S s after the first message (the towel at rest)
 #
 # WORKSPACE is a built catkin workspace holding cloth_sim (make build prints it).
 ws=${1:?usage: fold_rate.sh WORKSPACE N [SECONDS]}
@@ -11,6 +12,10 @@ n=${2:?usage: fold_rate.sh WORKSPACE N [SECONDS]}
 seconds=${3:-8}
 case $seconds in
   '' | *[!0-9]* | 0) echo "fold_rate.sh: SECONDS must be a whole number above 0, not '$seconds'" >&2; exit 2 ;;
+esac
+skip=${SKIP:-0}
+case $skip in
+  '' | *[!0-9]*) echo "fold_rate.sh: SKIP must be a whole number of seconds, not '$skip'" >&2; exit 2 ;;
 esac
 # Debian's ROS tools are /usr/bin/python3 scripts; a pyenv python3 earlier on PATH has no ROS modules.
 export PATH=/usr/bin:/bin:$PATH
@@ -25,7 +30,7 @@ launch=$!
 # The rate tool waits for a master without end: a launch that fails (a workspace without the package)
 # must not hang the script, so it gets the measurement's time and a minute more.
 status=0
-timeout $((seconds + 60)) "$ws/devel/lib/cloth_sim/cloth_topic_rate" --wait 20 --skip 0 --seconds "$seconds" \
+timeout $((skip + seconds + 60)) "$ws/devel/lib/cloth_sim/cloth_topic_rate" --wait 20 --skip "$skip" --seconds "$seconds" \
   /cloth_node/state || status=$?
 if ! kill -0 "$launch" 2>/dev/null; then
   echo "fold_rate.sh: roslaunch exited early:" >&2

@@ -123,6 +123,8 @@ void Simulation::reset() {
 bool Simulation::restoreState(const ClothState& state, std::string* error) {
   SimulationSnapshot current = snapshot();
   current.state = state;
+  // The last frame's motion was the old state's: the new one has not been seen moving.
+  current.guard.frame_motion_m_per_s = GuardMemory().frame_motion_m_per_s;
   return restore(current, error);
 }
 
@@ -172,16 +174,22 @@ ContactStats Simulation::integrateFrame(int substeps, StepReport* steps, SelfCol
   return contacts;
 }
 
-bool Simulation::isCalm() const {
-  return state_.velocities_m_per_s.colwise().norm().maxCoeff() <= kCalmSpeed_m_per_s &&
-         maxStructuralStrain() <= kCalmStrainFraction * kStrainWarning;
+double Simulation::frameMotion_m_per_s() const {
+  return (state_.positions_m - frame_start_.positions_m).colwise().norm().maxCoeff() / options_.frameDuration_s();
+}
+
+bool Simulation::calmStrain(double strain) { return strain <= kCalmStrainFraction * kStrainWarning; }
+
+bool Simulation::isCalm(double motion_m_per_s, double strain) {
+  return motion_m_per_s <= kCalmSpeed_m_per_s && calmStrain(strain);
 }
 
 int Simulation::frameAutoScale() const {
   // Only a calm cloth tries fewer substeps: one in motion (a flag in the wind, a cloth a hand drags) is
   // what needed them, and a trial there would only cost a recomputation.
   const bool trial = memory_.auto_scale > 1 && options_.guard_retries &&
-                     (state_.frame + 1) % GuardMemory::kScaleTrialFrames == 0 && isCalm();
+                     (state_.frame + 1) % GuardMemory::kScaleTrialFrames == 0 &&
+                     isCalm(memory_.frame_motion_m_per_s, maxStructuralStrain());
   return trial ? memory_.auto_scale / 2 : memory_.auto_scale;
 }
 
@@ -215,6 +223,11 @@ FrameEnvelope Simulation::frameEnvelope() const {
   return envelope;
 }
 
+bool Simulation::leavesGuarantee(const FrameReport& report, const FrameEnvelope& envelope) {
+  return report.self_collision.stretch_ratio > SelfCollision::kGuaranteedStretchRatio &&
+         envelope.stretch_ratio_before <= SelfCollision::kGuaranteedStretchRatio && report.self_collision.contacts > 0;
+}
+
 bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps, FrameReport* report) {
   std::string problem;
   bool refined_for_guarantee = false;
@@ -242,10 +255,7 @@ bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps,
     // At the cap there is no finer attempt: refining would throw away a result the guard accepted.
     const bool refine = problem.empty() && options_.autoSubsteps() && first_of_several &&
                         first_substeps < OptionLimits::kMaxSubsteps;
-    const bool leaves_guarantee = report->self_collision.stretch_ratio > SelfCollision::kGuaranteedStretchRatio &&
-                                  envelope.stretch_ratio_before <= SelfCollision::kGuaranteedStretchRatio &&
-                                  report->self_collision.contacts > 0 &&
-                                  memory_.auto_scale < kGuaranteeRefinementScale;
+    const bool leaves_guarantee = leavesGuarantee(*report, envelope) && memory_.auto_scale < kGuaranteeRefinementScale;
     if (refine && report->max_strain > kStrainWarning && envelope.strain_before <= kStrainWarning) {
       problem = "over-stretched to " + std::to_string(report->max_strain);
     } else if (refine && leaves_guarantee) {
@@ -315,10 +325,12 @@ FrameReport Simulation::advanceFrame() {
   frame_start_ = state_;
   const FrameEnvelope envelope = frameEnvelope();
   bool accepted = computeFrame(envelope, first_substeps, &report);
-  if (accepted && auto_scale < memory_.auto_scale && report.substeps_used == first_substeps && !isCalm()) {
+  double motion_m_per_s = accepted ? frameMotion_m_per_s() : 0.0;
+  if (accepted && auto_scale < memory_.auto_scale && report.substeps_used == first_substeps &&
+      (motion_m_per_s * options_.frameDuration_s() > kTrialSettle_m || !calmStrain(report.max_strain))) {
     // A trial the guard accepts may still stir the cloth (a hem on a table's edge jitters at one implicit
-    // step where it rests at two): unless the cloth is as calm after it as before, the frame is computed
-    // again at the remembered scale and the scale kept.
+    // step where it rests at two): unless the cloth stays about as calm, the frame is computed again at
+    // the remembered scale and the scale kept.
     state_ = frame_start_;
     energy_cache_valid_ = false;
     auto_scale = memory_.auto_scale;
@@ -328,11 +340,13 @@ FrameReport Simulation::advanceFrame() {
     again.stability_margin = report.stability_margin;
     report = again;
     accepted = computeFrame(envelope, first_substeps, &report);
+    motion_m_per_s = accepted ? frameMotion_m_per_s() : 0.0;
   }
   report.recomputed = accepted && report.substeps_used != first_substeps;
   last_substeps_ = report.substeps_used;
   if (accepted) {
     rememberFrame(report, first_substeps, auto_scale);
+    memory_.frame_motion_m_per_s = motion_m_per_s;
     memory_.consecutive_rollbacks = 0;
   } else if (++memory_.consecutive_rollbacks >= GuardMemory::kRollbacksBeforeRecovery) {
     accepted = recover(envelope, &report);
@@ -932,11 +946,13 @@ bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error)
   const GuardMemory& guard = snapshot.guard;
   if (problem.empty() && (guard.auto_scale < 1 || guard.auto_scale > GuardMemory::kMaxScale ||
                           (guard.auto_scale & (guard.auto_scale - 1)) != 0 || guard.consecutive_rollbacks < 0 ||
-                          guard.consecutive_rollbacks >= GuardMemory::kRollbacksBeforeRecovery)) {
+                          guard.consecutive_rollbacks >= GuardMemory::kRollbacksBeforeRecovery ||
+                          !(guard.frame_motion_m_per_s >= 0.0))) {
     problem = "guard memory: auto scale " + std::to_string(guard.auto_scale) + " (a power of two up to " +
               std::to_string(GuardMemory::kMaxScale) + "), rollbacks in a row " +
               std::to_string(guard.consecutive_rollbacks) + " (below " +
-              std::to_string(GuardMemory::kRollbacksBeforeRecovery) + ")";
+              std::to_string(GuardMemory::kRollbacksBeforeRecovery) + "), last frame's motion " +
+              std::to_string(guard.frame_motion_m_per_s) + " m/s (at least 0)";
   }
   if (!problem.empty()) {
     *error = "snapshot " + problem;

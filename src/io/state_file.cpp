@@ -31,10 +31,13 @@ constexpr char kInputsTag[4] = {'I', 'N', 'P', 'T'};   ///< ClothInputs
 constexpr char kGuardTag[4] = {'G', 'A', 'R', 'D'};    ///< GuardMemory (version 2 on)
 constexpr char kGrippersTag[4] = {'G', 'R', 'I', 'P'};  ///< ClothInputs::grippers (version 3 on)
 constexpr char kLinksTag[4] = {'L', 'I', 'N', 'K'};     ///< ClothInputs::frame_colliders (version 3 on)
-constexpr std::size_t kSectionCount = 6;
-/// Version 1 files end after the inputs, version 2 files after the guard's memory.
+constexpr char kMotionTag[4] = {'C', 'A', 'L', 'M'};    ///< GuardMemory::frame_motion_m_per_s (version 4 on)
+constexpr std::size_t kSectionCount = 7;
+/// Version 1 files end after the inputs, version 2 files after the guard's memory, version 3 files after
+/// the frame colliders' tracks.
 constexpr std::size_t kVersion1SectionCount = 3;
 constexpr std::size_t kVersion2SectionCount = 4;
+constexpr std::size_t kVersion3SectionCount = 6;
 /// Bytes of one gripper before its particles: id, max force, two poses of 7 doubles, start time, duration,
 /// the frame name's length and the particle count.
 constexpr std::size_t kGripperFixedBytes = 4 + 8 + 2 * 7 * 8 + 8 + 8 + 8 + 8;
@@ -285,6 +288,12 @@ ClothInputs decodeInputs(const std::string& bytes) {
   return inputs;
 }
 
+std::string encodeMotion(const GuardMemory& guard) {
+  Writer out;
+  out.put(guard.frame_motion_m_per_s);
+  return out.bytes();
+}
+
 std::string encodeGuard(const GuardMemory& guard) {
   Writer out;
   out.put(static_cast<std::int32_t>(guard.auto_scale));
@@ -339,6 +348,13 @@ std::vector<FrameColliderTrack> decodeLinks(const std::string& bytes) {
   return links;
 }
 
+double decodeMotion(const std::string& bytes) {
+  Reader in(bytes.data(), bytes.size(), "motion section");
+  const auto motion_m_per_s = in.get<double>();
+  in.expectEnd();
+  return motion_m_per_s;
+}
+
 GuardMemory decodeGuard(const std::string& bytes) {
   Reader in(bytes.data(), bytes.size(), "guard section");
   GuardMemory guard;
@@ -381,6 +397,7 @@ std::string encodeStateFile(const SimulationSnapshot& snapshot) {
   payload.section(kGuardTag, encodeGuard(snapshot.guard));
   payload.section(kGrippersTag, encodeGrippers(snapshot.inputs.grippers));
   payload.section(kLinksTag, encodeLinks(snapshot.inputs.frame_colliders));
+  payload.section(kMotionTag, encodeMotion(snapshot.guard));
   Writer file;
   file.putBytes(F::kMagic, sizeof(F::kMagic));
   file.put(F::kByteOrderMark);
@@ -430,9 +447,12 @@ bool decodeStateFile(const std::string& bytes, SimulationSnapshot* snapshot, std
     Reader sections(payload, held, "payload");
     std::array<std::string, kSectionCount> parts;
     const std::array<const char*, kSectionCount> tags{kOptionsTag, kStateTag, kInputsTag, kGuardTag, kGrippersTag,
-                                                      kLinksTag};
+                                                      kLinksTag, kMotionTag};
     const std::size_t section_count =
-        version == 1 ? kVersion1SectionCount : version == 2 ? kVersion2SectionCount : kSectionCount;
+        version == 1   ? kVersion1SectionCount
+        : version == 2 ? kVersion2SectionCount
+        : version == 3 ? kVersion3SectionCount
+                       : kSectionCount;
     for (std::size_t s = 0; s < section_count; ++s) {
       const std::string expected(tags[s], kTagBytes);
       if (sections.getBytes(kTagBytes) != expected) {
@@ -455,6 +475,7 @@ bool decodeStateFile(const std::string& bytes, SimulationSnapshot* snapshot, std
     } else {
       read.inputs.frame_colliders.resize(read.options.colliders.frames.size());  // older files have none
     }
+    if (section_count > kVersion3SectionCount) read.guard.frame_motion_m_per_s = decodeMotion(parts[6]);
     const int particles = read.options.rows * read.options.cols;
     if (read.state.particleCount() != particles) {
       throw Malformed{"state section: " + std::to_string(read.state.particleCount()) + " particles for a " +

@@ -305,6 +305,44 @@ TEST(SecondPass, AScaleTheClothStillNeedsIsKeptAndTheTrialFramesStayBitExactThro
   }
 }
 
+TEST(SecondPass, ACalmClothSavedJustBeforeATrialFrameTriesItAfterLoadingToo) {
+  // Whether a trial frame tries half the scale follows from how far the particles moved in the frame
+  // before it, which the file keeps (its CALM section): a run loaded just before a trial frame tries it
+  // as the uninterrupted run does. Without it (an older file) the trial would not come.
+  constexpr int kJerkedScale = 8;
+  constexpr std::uint64_t kFramesAfter = 40;
+  SceneOptions options = test::loadBuiltinScene("hanging");
+  options.rows = 10;
+  options.cols = 10;
+  Simulation original(options);
+  for (int frame = 0; frame < 100; ++frame) ASSERT_TRUE(original.advanceFrame().stable);
+  SimulationSnapshot jerked = original.snapshot();
+  jerked.guard.auto_scale = kJerkedScale;
+  std::string error;
+  ASSERT_TRUE(original.restore(jerked, &error)) << error;
+  while ((original.state().frame + 1) % GuardMemory::kScaleTrialFrames != 0) {
+    ASSERT_TRUE(original.advanceFrame().stable);
+  }
+  ASSERT_EQ(original.guardMemory().auto_scale, kJerkedScale);
+  SimulationSnapshot through_file;
+  ASSERT_TRUE(decodeStateFile(encodeStateFile(original.snapshot()), &through_file, &error)) << error;
+  Simulation restored(options);
+  ASSERT_TRUE(restored.restore(through_file, &error)) << error;
+  SimulationSnapshot forgotten = through_file;
+  forgotten.guard.frame_motion_m_per_s = GuardMemory().frame_motion_m_per_s;
+  Simulation older(options);
+  ASSERT_TRUE(older.restore(forgotten, &error)) << error;
+
+  const FrameReport trial = original.advanceFrame();
+  EXPECT_LT(original.guardMemory().auto_scale, kJerkedScale) << "the calm cloth's trial was not kept";
+  EXPECT_EQ(restored.advanceFrame().substeps_used, trial.substeps_used);
+  EXPECT_GT(older.advanceFrame().substeps_used, trial.substeps_used) << "without the motion a trial came all the same";
+  for (std::uint64_t frame = 0; frame < kFramesAfter; ++frame) {
+    ASSERT_EQ(original.advanceFrame().substeps_used, restored.advanceFrame().substeps_used);
+    ASSERT_TRUE(original.state().positions_m == restored.state().positions_m) << "frame " << original.state().frame;
+  }
+}
+
 // ---- 8. A tiny mass -------------------------------------------------------------------------------------
 
 TEST(SecondPass, AMassBelowAMilligramIsRefusedAndAMilligramClothRuns) {

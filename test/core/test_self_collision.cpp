@@ -473,6 +473,46 @@ TEST(SelfCollisionRefinement, AutoKeepsNoRefinementThatCannotBringTheGuaranteeBa
   EXPECT_EQ(next.substeps_used, 1) << next.reason;
 }
 
+TEST(SelfCollisionRefinement, AFoldedTowelAtRestComesBackFromFourStepsAFrameWithinTheGuarantee) {
+  // In the node, hands a frame late now and then leave `auto` at 4 steps a frame by the time the towel
+  // lies folded (measured: 4 substeps at rest, 66 ms a frame at 64 x 64). At rest it needs fewer, but its
+  // lower layer carries the upper one's weight as a velocity into the floor, which the floor takes off
+  // every step: by its velocities the towel never looked calm, and no trial at fewer steps came. By how
+  // far its particles move in a frame it is calm, and the trials bring the scale down, each frame within
+  // self-collision's guarantee.
+  constexpr int kScaleLeftByLateHands = 4;
+  constexpr int kScaleAtRest = 2;  // from 2 steps to 1 the fold line sags too far (Simulation::kTrialSettle_m)
+  constexpr int kTrialPeriods = 4;
+  constexpr double kSettle_s = 1.5;
+  SceneOptions options = loadBuiltinScene("fold");
+  Simulation simulation(options);
+  const ScriptedFold fold;
+  while (simulation.state().time_s < fold.releaseTime_s() + kSettle_s - 1e-9) {
+    fold.drive(simulation);
+    ASSERT_TRUE(simulation.advanceFrame().stable);
+  }
+  SimulationSnapshot late = simulation.snapshot();
+  ASSERT_LT(late.guard.auto_scale, kScaleLeftByLateHands) << "the scripted fold itself rests at 4 steps";
+  late.guard.auto_scale = kScaleLeftByLateHands;
+  std::string error;
+  ASSERT_TRUE(simulation.restore(late, &error)) << error;
+  Eigen::Matrix3Xd last_period_start;
+  for (std::uint64_t frame = 0; frame < kTrialPeriods * GuardMemory::kScaleTrialFrames; ++frame) {
+    if (frame == (kTrialPeriods - 1) * GuardMemory::kScaleTrialFrames) {
+      last_period_start = simulation.state().positions_m;
+    }
+    const FrameReport report = simulation.advanceFrame();
+    ASSERT_TRUE(report.stable) << report.reason;
+    EXPECT_LE(report.self_collision.stretch_ratio, SelfCollision::kGuaranteedStretchRatio) << "frame " << frame;
+    EXPECT_EQ(crossings(simulation), 0) << "frame " << frame;
+  }
+  EXPECT_EQ(simulation.guardMemory().auto_scale, kScaleAtRest);
+  // Settled where the fewer steps put it (about a millimetre, once), then still.
+  const double seconds = GuardMemory::kScaleTrialFrames * options.frameDuration_s();
+  EXPECT_LT((simulation.state().positions_m - last_period_start).colwise().norm().maxCoeff() / seconds,
+            kRestCreep_m_per_s);
+}
+
 TEST(SelfCollisionForced, TwoGrippersDraggingTheLayersThroughEachOtherAreReportedNotHidden) {
   // Nothing can stop two particles that grippers hold (no inverse mass), so the simulation cannot keep
   // them apart; it must say so. A gripper lifts a particle of the lower layer straight up through the

@@ -181,7 +181,8 @@ bool sameTrack(const PoseTrack& a, const PoseTrack& b) {
 
 ::testing::AssertionResult sameSnapshot(const SimulationSnapshot& a, const SimulationSnapshot& b) {
   if (auto options = sameOptions(a.options, b.options); !options) return options;
-  if (a.guard.auto_scale != b.guard.auto_scale || a.guard.consecutive_rollbacks != b.guard.consecutive_rollbacks) {
+  if (a.guard.auto_scale != b.guard.auto_scale || a.guard.consecutive_rollbacks != b.guard.consecutive_rollbacks ||
+      !sameBits(a.guard.frame_motion_m_per_s, b.guard.frame_motion_m_per_s)) {
     return ::testing::AssertionFailure() << "guard memory differs";
   }
   const ClothState& sa = a.state;
@@ -419,6 +420,8 @@ TEST(Restore, InvalidOptionsAreRefusedByName) {
   expectRefused([](SimulationSnapshot& s) { s.options.substeps = -1; }, "substeps");
   expectRefused([](SimulationSnapshot& s) { s.guard.auto_scale = 3; }, "guard memory");
   expectRefused([](SimulationSnapshot& s) { s.guard.consecutive_rollbacks = -1; }, "guard memory");
+  expectRefused([](SimulationSnapshot& s) { s.guard.frame_motion_m_per_s = std::nan(""); }, "guard memory");
+  expectRefused([](SimulationSnapshot& s) { s.guard.frame_motion_m_per_s = -1.0; }, "guard memory");
   expectRefused([](SimulationSnapshot& s) { s.options.springs[0].stiffness_N_per_m = kNaN; }, "stiffness");
 }
 
@@ -479,7 +482,10 @@ TEST(Restore, RestoreStateChecksItsInputAndKeepsOptionsAndInputs) {
   // Advancing moves the inputs on too (a gripper no one moved holds still from the new frame on): only
   // the state goes back.
   SimulationSnapshot expected = sim.snapshot();
+  ASSERT_TRUE(std::isfinite(expected.guard.frame_motion_m_per_s));
   expected.state = before.state;
+  // The last frame's motion was the old state's: a state put in has not been seen moving yet.
+  expected.guard.frame_motion_m_per_s = GuardMemory().frame_motion_m_per_s;
   ASSERT_TRUE(sim.restoreState(before.state, &error)) << error;
   EXPECT_TRUE(sameSnapshot(expected, sim.snapshot())) << "restoreState must bring back the state, inputs untouched";
 }
@@ -696,23 +702,46 @@ TEST(StateFile, RoundTripIsBitExact) {
   EXPECT_EQ(encodeStateFile(loaded), encodeStateFile(saved)) << "writing it again gives other bytes";
 }
 
+/// The CALM section (version 4 on): a tag, an 8-byte length and the last frame's motion (a double).
+constexpr std::size_t kMotionSectionBytes = 4 + 8 + 8;
+
+/// bytes, an encoded file, cut to its first `version`'s sections: the last `cut` bytes dropped.
+std::string asOlderVersion(std::string bytes, std::uint32_t version, std::size_t cut) {
+  bytes.resize(bytes.size() - cut);
+  poke(bytes, kVersionOffset, version);
+  poke(bytes, kLengthOffset, static_cast<std::uint64_t>(bytes.size() - StateFileFormat::kHeaderBytes));
+  return withChecksum(bytes);
+}
+
+TEST(StateFile, AVersion3FileStillLoadsWithNoFrameMotionMeasured) {
+  SimulationSnapshot saved = drivenSnapshot();
+  ASSERT_TRUE(std::isfinite(saved.guard.frame_motion_m_per_s)) << "the driven run measured no frame";
+  const std::string bytes = encodeStateFile(saved);
+  ASSERT_EQ(bytes.substr(bytes.size() - kMotionSectionBytes, 4), "CALM");
+  SimulationSnapshot loaded;
+  std::string error;
+  ASSERT_TRUE(decodeStateFile(asOlderVersion(bytes, 3, kMotionSectionBytes), &loaded, &error)) << error;
+  EXPECT_TRUE(std::isinf(loaded.guard.frame_motion_m_per_s)) << "an older file's cloth must not count as calm";
+  saved.guard.frame_motion_m_per_s = GuardMemory().frame_motion_m_per_s;
+  EXPECT_TRUE(sameSnapshot(saved, loaded));
+}
+
 TEST(StateFile, AVersion2FileStillLoadsWithNoGrippersOrLinkPoses) {
   SimulationSnapshot saved = drivenSnapshot();
   saved.inputs.grippers.clear();
   saved.inputs.frame_colliders.clear();
   saved.options.colliders.frames.clear();
-  std::string bytes = encodeStateFile(saved);
-  // Version 2 is version 3 without the last two sections: GRIP and LINK, each a tag, an 8-byte length and
-  // an 8-byte count of 0.
+  const std::string bytes = encodeStateFile(saved);
+  // Version 2 is version 4 without the last three sections: GRIP and LINK, each a tag, an 8-byte length
+  // and an 8-byte count of 0, and CALM.
   constexpr std::size_t kEmptySectionBytes = 4 + 8 + 8;
-  ASSERT_EQ(bytes.substr(bytes.size() - 2 * kEmptySectionBytes, 4), "GRIP");
-  ASSERT_EQ(bytes.substr(bytes.size() - kEmptySectionBytes, 4), "LINK");
-  bytes.resize(bytes.size() - 2 * kEmptySectionBytes);
-  poke(bytes, kVersionOffset, std::uint32_t{2});
-  poke(bytes, kLengthOffset, static_cast<std::uint64_t>(bytes.size() - StateFileFormat::kHeaderBytes));
+  ASSERT_EQ(bytes.substr(bytes.size() - kMotionSectionBytes - 2 * kEmptySectionBytes, 4), "GRIP");
+  ASSERT_EQ(bytes.substr(bytes.size() - kMotionSectionBytes - kEmptySectionBytes, 4), "LINK");
   SimulationSnapshot loaded;
   std::string error;
-  ASSERT_TRUE(decodeStateFile(withChecksum(bytes), &loaded, &error)) << error;
+  ASSERT_TRUE(decodeStateFile(asOlderVersion(bytes, 2, kMotionSectionBytes + 2 * kEmptySectionBytes), &loaded, &error))
+      << error;
+  saved.guard.frame_motion_m_per_s = GuardMemory().frame_motion_m_per_s;
   EXPECT_TRUE(sameSnapshot(saved, loaded));
 }
 
@@ -866,11 +895,11 @@ TEST(StateFile, SizesOfOrdinarySnapshots) {
     snapshot.inputs.pin_travel_m.setZero(3, 2);
     const std::size_t size = encodeStateFile(snapshot).size();
     std::printf("[ size       ] hanging %dx%d: %zu bytes\n", side, side, size);
-    // Header, 6 section headers (tag + length), options text, state, inputs, guard memory (2 x int32),
-    // grippers and frame colliders (a count of 0 each).
-    EXPECT_EQ(size, StateFileFormat::kHeaderBytes + 6 * 12 + sceneYaml(snapshot.options).size() +
+    // Header, 7 section headers (tag + length), options text, state, inputs, guard memory (2 x int32),
+    // grippers and frame colliders (a count of 0 each), the last frame's motion (a double).
+    EXPECT_EQ(size, StateFileFormat::kHeaderBytes + 7 * 12 + sceneYaml(snapshot.options).size() +
                         (8 + 8 + 8 + 48 * static_cast<std::size_t>(side * side)) + (24 + 8 + 2 * 4 + 2 * 48 + 8) + 8 +
-                        8 + 8);
+                        8 + 8 + 8);
   }
 }
 

@@ -124,7 +124,8 @@ class Simulation {
 
   /// Back to the scene's initial state: grasps released, pins re-hooked. Tuning (retune, wind) is kept.
   void reset();
-  /// Replaces the state, keeping options and inputs; false with *error (state unchanged) if it would not
+  /// Replaces the state, keeping options, inputs and `auto`'s scale (not the last frame's motion: the
+  /// state is not calm until a frame of it has run); false with *error (state unchanged) if it would not
   /// pass restore(): wrong particle count, non-finite or out-of-bound values.
   bool restoreState(const ClothState& state, std::string* error);
 
@@ -205,16 +206,32 @@ class Simulation {
   /// The auto scale this frame starts from: the remembered one, halved on a trial frame of a calm cloth
   /// (GuardMemory::kScaleTrialFrames).
   int frameAutoScale() const;
-  /// No particle faster than kCalmSpeed_m_per_s and the structural strain below kCalmStrainFraction of
+  /// No particle moving faster than kCalmSpeed_m_per_s over a frame (motion_m_per_s: the farthest one
+  /// moved, over the frame's duration) and the structural strain below kCalmStrainFraction of
   /// kStrainWarning: a cloth at rest, not one flapping, dragged or stretched over an edge.
-  bool isCalm() const;
+  static bool isCalm(double motion_m_per_s, double strain);
+  /// The structural strain below kCalmStrainFraction of kStrainWarning.
+  static bool calmStrain(double strain);
+  /// The farthest any particle moved from frame_start_ to state_, over the frame's duration (m/s).
+  double frameMotion_m_per_s() const;
   static constexpr double kCalmSpeed_m_per_s = 0.05;
+  /// A trial frame may move a particle this far (m) and still be kept: a layer resting on another
+  /// settles a little where fewer steps put it, once. Measured at 50 Hz, the folded towel from 4 steps a
+  /// frame to 2: 1.3-1.65 mm at 24 to 64 per side. Not much more: from 2 steps to 1 its fold line sagged
+  /// 2.2-2.9 mm, and in the frames after, it left self-collision's guarantee (alternating trials and
+  /// refinements raised its strain from 4 to 10 %). A distance, not a speed: the settling is the
+  /// trial step's, whatever the frame rate (at 30 Hz the same towel settles 4.1 mm from 4 steps to 2,
+  /// over the bound: it keeps its 4).
+  static constexpr double kTrialSettle_m = 1.9e-3;
   static constexpr double kCalmStrainFraction = 0.5;
   /// `auto` refines a frame that takes self-collision's guarantee out of force while its scale is below
   /// this: the fold's jam needs two steps a frame and the twisted strip's near pairs four (at two, 7 of
   /// them crossed), while refining without a bound kept the 128x128 fold at rest at 16.
   static constexpr int kGuaranteeRefinementScale = 4;
   int firstSubsteps(double stable_step_s, int auto_scale, std::string* warning) const;
+  /// Whether a computed frame took self-collision's no-crossing guarantee out of force (stretch ratio
+  /// above SelfCollision::kGuaranteedStretchRatio, from at most it) while layers touched.
+  static bool leavesGuarantee(const FrameReport& report, const FrameEnvelope& envelope);
   /// The energy and strain budgets of the frame about to be computed, from the state and the inputs.
   FrameEnvelope frameEnvelope() const;
   /// Computes the frame from state_ (= frame_start_) with the guard's attempts; false (state restored)

@@ -20,6 +20,7 @@
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <limits>
 #include <string>
 
 namespace cloth_sim::core {
@@ -101,12 +102,18 @@ struct GuardMemory {
   /// a cloth at rest kept 64 substeps a frame for good (issue 18).
   int auto_scale = 1;
   int consecutive_rollbacks = 0;  ///< frames rolled back in a row (recovery starts at kRollbacksBeforeRecovery)
+  /// The farthest any particle moved in the last accepted frame, over the frame's duration (m/s; infinity
+  /// until a frame is accepted after a reset, retune, recovery or restoreState, or after loading a state
+  /// file older than version 4): whether the cloth is calm enough for a trial at half the scale. Measured from
+  /// positions, not velocities: a layer resting on another on the floor carries the upper layer's weight
+  /// as a velocity the floor takes off every step, and a folded towel at rest never looked calm by it.
+  double frame_motion_m_per_s = std::numeric_limits<double>::infinity();
   /// Largest auto_scale: a frame that needs more than 64x the predicted substeps is not a prediction problem.
   static constexpr int kMaxScale = 1 << 6;
   /// Frames (by number) on which a scale above 1 is tried at half: 16 frames, 0.32 s at 50 Hz, so the
   /// largest scale comes back to 1 in 6 trials (about 2 s) once the cloth is calm, and a cloth that does
   /// need the scale pays one recomputed frame in 16. By frame number, so a restored run tries the same
-  /// frames (save/restore stays bit-exact with no more memory in the file).
+  /// frames (with frame_motion_m_per_s, which the file keeps: save/restore stays bit-exact).
   static constexpr std::uint64_t kScaleTrialFrames = 16;
   /// Frames rolled back in a row before the simulation recovers by itself (switches to implicit Euler,
   /// and resets the scene if even that cannot compute a plausible frame).

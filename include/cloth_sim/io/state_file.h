@@ -18,8 +18,9 @@ struct StateFileFormat {
   static constexpr char kMagic[8] = {'C', 'L', 'O', 'T', 'H', 'S', 'A', 'V'};
   /// Written now; readers accept 1 up to this (a newer file is refused with its version). Version 2 added
   /// the guard's memory (GARD); a version 1 file restores with a fresh one. Version 3 added the grippers
-  /// (GRIP); older files restore with none.
-  static constexpr std::uint32_t kVersion = 3;
+  /// (GRIP) and the frame colliders' tracks (LINK); older files restore with none. Version 4 added the
+  /// last frame's motion (CALM), which `auto` substeps read; older files restore with none measured.
+  static constexpr std::uint32_t kVersion = 4;
   /// Written in the writer's byte order: read back as 0x04030201 on a machine of the other order.
   static constexpr std::uint32_t kByteOrderMark = 0x01020304;
   static constexpr std::size_t kHeaderBytes = 32;
