@@ -33,11 +33,10 @@ constexpr char kGrippersTag[4] = {'G', 'R', 'I', 'P'};  ///< ClothInputs::grippe
 constexpr char kLinksTag[4] = {'L', 'I', 'N', 'K'};     ///< ClothInputs::frame_colliders (version 3 on)
 constexpr char kMotionTag[4] = {'C', 'A', 'L', 'M'};    ///< GuardMemory::frame_motion_m_per_s (version 4 on)
 constexpr std::size_t kSectionCount = 7;
-/// Version 1 files end after the inputs, version 2 files after the guard's memory, version 3 files after
-/// the frame colliders' tracks.
-constexpr std::size_t kVersion1SectionCount = 3;
-constexpr std::size_t kVersion2SectionCount = 4;
-constexpr std::size_t kVersion3SectionCount = 6;
+/// How many of the sections above a file of each version holds (index: the version, 1 up to
+/// StateFileFormat::kVersion): version 1 files end after the inputs, version 2 files after the guard's
+/// memory, version 3 files after the frame colliders' tracks.
+constexpr std::array<std::size_t, StateFileFormat::kVersion + 1> kSectionsInVersion{0, 3, 4, 6, kSectionCount};
 /// Bytes of one gripper before its particles: id, max force, two poses of 7 doubles, start time, duration,
 /// the frame name's length and the particle count.
 constexpr std::size_t kGripperFixedBytes = 4 + 8 + 2 * 7 * 8 + 8 + 8 + 8 + 8;
@@ -448,11 +447,7 @@ bool decodeStateFile(const std::string& bytes, SimulationSnapshot* snapshot, std
     std::array<std::string, kSectionCount> parts;
     const std::array<const char*, kSectionCount> tags{kOptionsTag, kStateTag, kInputsTag, kGuardTag, kGrippersTag,
                                                       kLinksTag, kMotionTag};
-    const std::size_t section_count =
-        version == 1   ? kVersion1SectionCount
-        : version == 2 ? kVersion2SectionCount
-        : version == 3 ? kVersion3SectionCount
-                       : kSectionCount;
+    const std::size_t section_count = kSectionsInVersion[version];
     for (std::size_t s = 0; s < section_count; ++s) {
       const std::string expected(tags[s], kTagBytes);
       if (sections.getBytes(kTagBytes) != expected) {
@@ -468,14 +463,14 @@ bool decodeStateFile(const std::string& bytes, SimulationSnapshot* snapshot, std
     read.options = decodeOptions(parts[0]);
     read.state = decodeState(parts[1]);
     read.inputs = decodeInputs(parts[2]);
-    if (section_count > kVersion1SectionCount) read.guard = decodeGuard(parts[3]);
-    if (section_count > kVersion2SectionCount) {
+    if (version >= 2) read.guard = decodeGuard(parts[3]);
+    if (version >= 3) {
       read.inputs.grippers = decodeGrippers(parts[4]);
       read.inputs.frame_colliders = decodeLinks(parts[5]);
     } else {
       read.inputs.frame_colliders.resize(read.options.colliders.frames.size());  // older files have none
     }
-    if (section_count > kVersion3SectionCount) read.guard.frame_motion_m_per_s = decodeMotion(parts[6]);
+    if (version >= 4) read.guard.frame_motion_m_per_s = decodeMotion(parts[6]);
     const int particles = read.options.rows * read.options.cols;
     if (read.state.particleCount() != particles) {
       throw Malformed{"state section: " + std::to_string(read.state.particleCount()) + " particles for a " +
