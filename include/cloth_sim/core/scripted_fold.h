@@ -5,7 +5,8 @@
 // The hands take the two corners of the cloth's last row and carry them over the middle on a half circle
 // (in the plane of the rows' direction and the cloth's normal u x v) over the first row's corners, ending
 // kSetDownThicknesses thicknesses above them and kLoopThicknesses thicknesses short of them (towards the
-// fold); they hold there a moment, then let go.
+// fold), or short of where those corners are now if the fold has dragged them further in; they hold
+// there a moment, then let go.
 #pragma once
 
 #include "cloth_sim/core/grid.h"
@@ -34,9 +35,15 @@ struct ScriptedFold {
   double releaseTime_s() const { return start_s + carry_s + hold_s; }
   /// The particles the hands hold: the last row's corners.
   std::vector<int> heldParticles(const ClothGrid& grid) const;
-  /// Where the hands are at time_s, world frame (one per held particle), for a cloth that lies flat on its
-  /// rest grid and self-collision `thickness_m`.
-  std::vector<Eigen::Vector3d> handPositions_m(const ClothGrid& grid, double thickness_m, double time_s) const;
+  /// Where the hands are at time_s, world frame (one per held particle), for a cloth that lay flat on its
+  /// rest grid, self-collision `thickness_m`, and particles now at positions_m. The fold drags the lower
+  /// half towards the fold line (about 2.4 cm on the `fold` scene's towel at every size), and the hands
+  /// stop short of where its corners are now if that is further in than the loop's allowance: aimed at
+  /// the rest grid alone, they set the upper edge down past the lower one wherever the allowance (which
+  /// shrinks with the thickness) is the smaller, and at 96 x 96 and 128 x 128 it hung off the lower
+  /// layer's edge onto the floor, stretched 30 % over that step and held there by friction.
+  std::vector<Eigen::Vector3d> handPositions_m(const ClothGrid& grid, double thickness_m, double time_s,
+                                               const Eigen::Matrix3Xd& positions_m) const;
   /// Grabs, moves or releases the hands for the frame that starts at simulation.state().time_s (call
   /// before advanceFrame): the targets are where the hands are at the frame's end.
   void drive(Simulation& simulation) const;
