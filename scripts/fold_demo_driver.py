@@ -5,8 +5,8 @@ The same script as the core's ScriptedFold (include/cloth_sim/core/scripted_fold
 `cloth_bench --fold` use: the hands take the two corners of the towel's last row at 0.2 s of simulated
 time, carry them over the middle on a half circle (smoothstep, 1.6 s) over the first row's corners,
 ending 1.5 self-collision thicknesses above them and pi/2 thicknesses short of them (the fold's loop
-takes that much of the towel), or short of where those corners are now if the fold has dragged them
-further in (read from each ~state), hold 0.4 s and let go. It follows the node's simulated
+takes that much of the towel), or over where those corners are now if the fold has dragged them in
+further than that (read from each ~state), hold 0.4 s and let go. It follows the node's simulated
 time from the first ~state it sees (each ~state message moves the hands to where they are at the end of
 the next frame), so it folds the same at any node speed and however late it starts. The towel's grid and thickness come from the first ~state: the towel lies
 flat on its rest grid then, and the thickness is the default, 1.5 grid-cell diagonals (the driver reads

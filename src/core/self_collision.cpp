@@ -110,7 +110,7 @@ SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfColli
   const Eigen::VectorXd& w = supported_weight_;
   const Eigen::Matrix3Xd& rest = grid.rest_positions_m;
   const int count = grid.particleCount();
-  // Neighbours on the rest grid are exempt (the springs keep them apart); the response also leaves out
+  // Neighbours on the rest grid are exempt (the springs keep them apart); the response's sweeps pass over
   // two particles neither of which can move.
   const double exempt_m = SelfCollision::kExemptRestThicknesses * thickness_m;
   const double exempt_squared = exempt_m * exempt_m;
@@ -234,14 +234,16 @@ SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfColli
   const double floor_m = kFailSafeFraction * thickness_m;
   // Pairs of two pins or gripped particles too: nothing can stop them, but their crossing is counted. The
   // fail-safe's boxes (reach floor_m) lie inside the response's (reach kResponseReach h) while no particle
-  // has moved further than their difference since the response's pairs were found: then its pairs are
-  // those of the response whose boxes overlap, in the same order, without another pass over the list.
+  // has moved, along any axis, further than half the difference of the two reaches since the response's
+  // pairs were found: then its pairs are those of the response whose boxes overlap, in the same order,
+  // without another pass over the list.
   const double inside_m = kInsideFraction * 0.5 * (kResponseReach - kFailSafeFraction) * thickness_m;
   if ((positions_m - after_step_m_).cwiseAbs().maxCoeff() <= inside_m) {
     finder_.setBoxes(start_m, positions_m, floor_m);
-    pairs_.erase(std::remove_if(pairs_.begin(), pairs_.end(),
-                                [&](const std::pair<int, int>& pair) { return !finder_.boxesOverlap(pair.first, pair.second); }),
-                 pairs_.end());
+    const auto outside = [this](const std::pair<int, int>& pair) {
+      return !finder_.boxesOverlap(pair.first, pair.second);
+    };
+    pairs_.erase(std::remove_if(pairs_.begin(), pairs_.end(), outside), pairs_.end());
   } else {
     candidatePairs(start_m, positions_m, floor_m, thickness_m, apart, &pairs_);
   }

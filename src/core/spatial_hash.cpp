@@ -73,7 +73,10 @@ void SweptPairFinder::sortPairs(int count, std::vector<std::pair<int, int>>* pai
   for (const auto& pair : *pairs) ++first_start_[static_cast<std::size_t>(pair.first) + 1];
   for (std::size_t i = 0; i < static_cast<std::size_t>(count); ++i) first_start_[i + 1] += first_start_[i];
   sorted_pairs_.resize(pairs->size());
-  for (const auto& pair : *pairs) sorted_pairs_[static_cast<std::size_t>(first_start_[static_cast<std::size_t>(pair.first)]++)] = pair;
+  for (const auto& pair : *pairs) {
+    int& slot = first_start_[static_cast<std::size_t>(pair.first)];
+    sorted_pairs_[static_cast<std::size_t>(slot++)] = pair;
+  }
   // first_start_[i] is now where i's pairs end; each group's partners in order.
   auto begin = sorted_pairs_.begin();
   for (std::size_t i = 0; i < static_cast<std::size_t>(count); ++i) {

@@ -51,7 +51,9 @@ double selfCollisionThickness_m(const SelfCollisionOptions& options, const Cloth
 
 /// What self-collision did in one or more substeps.
 struct SelfCollisionStats {
-  int candidate_pairs = 0;  ///< pairs the broad phase handed to the response
+  /// Pairs the broad phase handed to the response (with those of two particles that cannot move, which
+  /// its sweeps pass over).
+  int candidate_pairs = 0;
   int contacts = 0;         ///< pairs the response pushed apart
   int frozen = 0;           ///< particles the fail-safe put back where their substep started
   /// Pairs the fail-safe could not separate because a particle with no inverse mass (pinned, held by a
@@ -63,8 +65,9 @@ struct SelfCollisionStats {
   SelfCollisionStats& operator+=(const SelfCollisionStats& other);
 };
 
-/// Self-collision's broad phase, response and fail-safe for one grid, with its scratch memory. No state
-/// is carried from one call to the next (a restored run continues bit for bit).
+/// Self-collision's broad phase, response and fail-safe for one grid, with its scratch memory. What it
+/// carries from one call to the next (the candidate list) is a cache that no result depends on (a
+/// restored run continues bit for bit).
 class SelfCollision {
  public:
   /// Pairs closer than this many thicknesses on the rest grid are exempt. Not 1: the cloth between two

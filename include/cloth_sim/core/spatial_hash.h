@@ -51,7 +51,7 @@ class SweptPairFinder {
 
   /// The swept boxes of the last setBoxes (or find): each point's start and end, grown by reach_m / 2.
   void setBoxes(const Eigen::Matrix3Xd& start_m, const Eigen::Matrix3Xd& end_m, double reach_m);
-  /// Whether the boxes of i and j overlap (what find pairs, before `keep`).
+  /// Whether the boxes of i and j overlap (find keeps the pairs that do and that `keep` accepts).
   bool boxesOverlap(int i, int j) const {
     const double* min_i = box_min_m_.col(i).data();
     const double* max_i = box_max_m_.col(i).data();
