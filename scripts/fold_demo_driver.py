@@ -5,7 +5,8 @@ The same script as the core's ScriptedFold (include/cloth_sim/core/scripted_fold
 `cloth_bench --fold` use: the hands take the two corners of the towel's last row at 0.2 s of simulated
 time, carry them over the middle on a half circle (smoothstep, 1.6 s) over the first row's corners,
 ending 1.5 self-collision thicknesses above them and pi/2 thicknesses short of them (the fold's loop
-takes that much of the towel), hold 0.4 s and let go. It follows the node's simulated
+takes that much of the towel), or over where those corners are now if the fold has dragged them in
+further than that (read from each ~state), hold 0.4 s and let go. It follows the node's simulated
 time from the first ~state it sees (each ~state message moves the hands to where they are at the end of
 the next frame), so it folds the same at any node speed and however late it starts. The towel's grid and thickness come from the first ~state: the towel lies
 flat on its rest grid then, and the thickness is the default, 1.5 grid-cell diagonals (the driver reads
@@ -77,10 +78,11 @@ class FoldDriver:
             self.thickness = THICKNESS_PER_DIAGONAL * norm(sub(points[cols + 1], points[0]))
         rospy.loginfo("fold_demo_driver: %dx%d towel, thickness %.4f m", rows, cols, self.thickness)
 
-    def hands(self, t):
+    def hands(self, t, points):
+        """Where the hands are at time t, the towel's particles now at points."""
         angle = math.pi * smoothstep((t - START_S) / CARRY_S)
         set_down = SET_DOWN_THICKNESSES * self.thickness * angle / math.pi
-        short = LOOP_THICKNESSES * self.thickness * angle / math.pi
+        allowance = LOOP_THICKNESSES * self.thickness
         out = []
         for held, target in zip(self.held, self.targets):
             start, end = self.rest[held], self.rest[target]
@@ -88,6 +90,9 @@ class FoldDriver:
             radius = sub(start, center)
             lift = math.sin(angle) * norm(radius) + set_down
             length = norm(radius)
+            # How far the fold has dragged the corner in (along the radius, towards the fold line).
+            dragged = sum(d * r for d, r in zip(sub(points[target], end), radius)) / length
+            short = max(allowance, dragged) * angle / math.pi
             out.append([center[k] + (math.cos(angle) + short / length) * radius[k] + lift * self.normal[k]
                         for k in range(3)])
         return out
@@ -113,7 +118,8 @@ class FoldDriver:
             self.released = True
             rospy.loginfo("fold_demo_driver: let go at %.2f s", t)
             return
-        for k, hand in enumerate(self.hands(end)):
+        points = [(p.x, p.y, p.z) for p in state.positions]
+        for k, hand in enumerate(self.hands(end, points)):
             self.send(state.header.frame_id, k, Grasp.GRAB, hand)
 
     def send(self, frame_id, hand, action, point):

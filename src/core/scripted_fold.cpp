@@ -20,8 +20,8 @@ std::vector<int> ScriptedFold::heldParticles(const ClothGrid& grid) const {
   return {grid.index(grid.rows - 1, 0), grid.index(grid.rows - 1, grid.cols - 1)};
 }
 
-std::vector<Eigen::Vector3d> ScriptedFold::handPositions_m(const ClothGrid& grid, double thickness_m,
-                                                           double time_s) const {
+std::vector<Eigen::Vector3d> ScriptedFold::handPositions_m(const ClothGrid& grid, double thickness_m, double time_s,
+                                                           const Eigen::Matrix3Xd& positions_m) const {
   const Eigen::Matrix3Xd& rest = grid.rest_positions_m;
   // The cloth's normal, away from what it lies on: u x v (the first particles of a row and a column).
   const Eigen::Vector3d along_row = rest.col(grid.index(0, grid.cols - 1)) - rest.col(0);
@@ -29,7 +29,7 @@ std::vector<Eigen::Vector3d> ScriptedFold::handPositions_m(const ClothGrid& grid
   const Eigen::Vector3d normal = along_row.cross(along_column).normalized();
   const double angle_rad = kPi * smoothstep((time_s - start_s) / carry_s);
   const double set_down_m = kSetDownThicknesses * thickness_m * angle_rad / kPi;
-  const double short_m = kLoopThicknesses * thickness_m * angle_rad / kPi;
+  const double allowance_m = kLoopThicknesses * thickness_m;
   std::vector<Eigen::Vector3d> hands;
   const std::vector<int> held = heldParticles(grid);
   const int targets[] = {grid.index(0, 0), grid.index(0, grid.cols - 1)};
@@ -38,6 +38,9 @@ std::vector<Eigen::Vector3d> ScriptedFold::handPositions_m(const ClothGrid& grid
     const Eigen::Vector3d to = rest.col(targets[h]);
     const Eigen::Vector3d center = 0.5 * (from + to);
     const Eigen::Vector3d radius = from - center;
+    // How far the fold has dragged the corner in (along the radius, towards the fold line).
+    const double dragged_m = (positions_m.col(targets[h]) - to).dot(radius.normalized());
+    const double short_m = std::max(allowance_m, dragged_m) * angle_rad / kPi;
     hands.push_back(center + std::cos(angle_rad) * radius + short_m * radius.normalized() +
                     (std::sin(angle_rad) * radius.norm() + set_down_m) * normal);
   }
@@ -53,7 +56,8 @@ void ScriptedFold::drive(Simulation& simulation) const {
     return;
   }
   const double thickness_m = selfCollisionThickness_m(simulation.options().self_collision, simulation.grid());
-  const std::vector<Eigen::Vector3d> hands = handPositions_m(simulation.grid(), thickness_m, end_s);
+  const std::vector<Eigen::Vector3d> hands =
+      handPositions_m(simulation.grid(), thickness_m, end_s, simulation.state().positions_m);
   for (std::size_t h = 0; h < held.size(); ++h) {
     GraspRequest request;
     request.id = kFirstGraspId + static_cast<std::uint32_t>(h);

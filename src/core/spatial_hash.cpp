@@ -68,16 +68,23 @@ bool SweptPairFinder::hashBoxes(double reach_m) {
   return true;
 }
 
-bool SweptPairFinder::firstSharedCell(int i, int j, const Cell& cell) const {
-  const Cell& low_i = low_cells_[static_cast<std::size_t>(i)];
-  const Cell& low_j = low_cells_[static_cast<std::size_t>(j)];
-  for (int axis = 0; axis < 3; ++axis) {
-    if (box_min_m_(axis, i) > box_max_m_(axis, j) || box_min_m_(axis, j) > box_max_m_(axis, i)) return false;
-    // floor is monotonic: the cell of the larger low corner is the larger of their cells.
-    const auto a = static_cast<std::size_t>(axis);
-    if (std::max(low_i[a], low_j[a]) != cell[a]) return false;
+void SweptPairFinder::sortPairs(int count, std::vector<std::pair<int, int>>* pairs) {
+  first_start_.assign(static_cast<std::size_t>(count) + 1, 0);
+  for (const auto& pair : *pairs) ++first_start_[static_cast<std::size_t>(pair.first) + 1];
+  for (std::size_t i = 0; i < static_cast<std::size_t>(count); ++i) first_start_[i + 1] += first_start_[i];
+  sorted_pairs_.resize(pairs->size());
+  for (const auto& pair : *pairs) {
+    int& slot = first_start_[static_cast<std::size_t>(pair.first)];
+    sorted_pairs_[static_cast<std::size_t>(slot++)] = pair;
   }
-  return true;
+  // first_start_[i] is now where i's pairs end; each group's partners in order.
+  auto begin = sorted_pairs_.begin();
+  for (std::size_t i = 0; i < static_cast<std::size_t>(count); ++i) {
+    const auto end = sorted_pairs_.begin() + first_start_[i];
+    std::sort(begin, end);
+    begin = end;
+  }
+  pairs->swap(sorted_pairs_);
 }
 
 }  // namespace cloth_sim::core

@@ -4,8 +4,9 @@
 //
 // The hands take the two corners of the cloth's last row and carry them over the middle on a half circle
 // (in the plane of the rows' direction and the cloth's normal u x v) over the first row's corners, ending
-// kSetDownThicknesses thicknesses above them and kLoopThicknesses thicknesses short of them (towards the
-// fold); they hold there a moment, then let go.
+// kSetDownThicknesses thicknesses above them and kLoopThicknesses thicknesses short of where they lay at
+// rest (towards the fold), or over where they are now if the fold has dragged them in further than that;
+// they hold there a moment (following the corners, should the fold drag them further), then let go.
 #pragma once
 
 #include "cloth_sim/core/grid.h"
@@ -20,13 +21,14 @@ namespace cloth_sim::core {
 struct ScriptedFold {
   double start_s = 0.2;   ///< the hands close on the corners
   double carry_s = 1.6;   ///< and carry them over in this long (smoothstep along the half circle)
-  double hold_s = 0.4;    ///< then hold still before letting go
+  double hold_s = 0.4;    ///< then hold before letting go
   double grasp_stiffness_N_per_m = 0.0;  ///< 0: the scene's grasp_stiffness
   /// Where the hands set the corners down: this many thicknesses above the first row.
   static constexpr double kSetDownThicknesses = 1.5;
-  /// How far short of the first row the hands stop, in thicknesses: the fold's loop, a half circle of
-  /// diameter h, takes pi h / 2 of the cloth's length. Set down exactly over the first row, the moved half
-  /// had no length left for the loop, and the fold line's springs were held at 60 % strain.
+  /// How far short of the first row's rest corners the hands stop at least, in thicknesses: the fold's
+  /// loop, a half circle of diameter h, takes pi h / 2 of the cloth's length. Set down exactly over the
+  /// first row, the moved half had no length left for the loop, and the fold line's springs were held at
+  /// 60 % strain. Where the fold has dragged the corners in further, the hands stop over them.
   static constexpr double kLoopThicknesses = 1.5707963267948966;
   /// Grasp ids the script uses (first hand, second hand).
   static constexpr std::uint32_t kFirstGraspId = 7001;
@@ -34,9 +36,15 @@ struct ScriptedFold {
   double releaseTime_s() const { return start_s + carry_s + hold_s; }
   /// The particles the hands hold: the last row's corners.
   std::vector<int> heldParticles(const ClothGrid& grid) const;
-  /// Where the hands are at time_s, world frame (one per held particle), for a cloth that lies flat on its
-  /// rest grid and self-collision `thickness_m`.
-  std::vector<Eigen::Vector3d> handPositions_m(const ClothGrid& grid, double thickness_m, double time_s) const;
+  /// Where the hands are at time_s, world frame (one per held particle), for a cloth that lay flat on its
+  /// rest grid, self-collision `thickness_m`, and particles now at positions_m. The fold drags the lower
+  /// half towards the fold line (2.4-4.2 cm on the `fold` scene's towel, at every size measured), and the
+  /// hands stop over where its corners are now if that is further in than the loop's allowance: aimed at
+  /// the rest grid alone, they set the upper edge down past the lower one wherever the allowance (which
+  /// shrinks with the thickness) is the smaller, and at 96 x 96 and 128 x 128 it hung off the lower
+  /// layer's edge onto the floor, stretched 30 % over that step and held there by friction.
+  std::vector<Eigen::Vector3d> handPositions_m(const ClothGrid& grid, double thickness_m, double time_s,
+                                               const Eigen::Matrix3Xd& positions_m) const;
   /// Grabs, moves or releases the hands for the frame that starts at simulation.state().time_s (call
   /// before advanceFrame): the targets are where the hands are at the frame's end.
   void drive(Simulation& simulation) const;

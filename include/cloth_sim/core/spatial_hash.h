@@ -38,31 +38,47 @@ class SweptPairFinder {
           if (!sameCell(sorted_cells_[a], sorted_cells_[c])) continue;  // another cell in the same bucket
           const int i = std::min(sorted_points_[a], sorted_points_[c]);
           const int j = std::max(sorted_points_[a], sorted_points_[c]);
-          // keep first: it turns most pairs away (neighbours on the cloth's grid).
-          if (i == j || !keep(i, j) || !firstSharedCell(i, j, sorted_cells_[a])) continue;
+          // Cheapest first: most pairs meet again in a cell that is not their first shared one (near points
+          // share most of their cells), and keep turns most of the rest away (neighbours on the cloth's
+          // grid); the boxes' overlap, which reads both boxes, last.
+          if (i == j || !isFirstSharedCell(i, j, sorted_cells_[a]) || !keep(i, j) || !boxesOverlap(i, j)) continue;
           pairs->emplace_back(i, j);
         }
       }
     }
-    std::sort(pairs->begin(), pairs->end());
+    sortPairs(static_cast<int>(start_m.cols()), pairs);
   }
 
   /// The swept boxes of the last setBoxes (or find): each point's start and end, grown by reach_m / 2.
   void setBoxes(const Eigen::Matrix3Xd& start_m, const Eigen::Matrix3Xd& end_m, double reach_m);
-  /// Whether the boxes of i and j overlap (what find pairs, before `keep`).
+  /// Whether the boxes of i and j overlap (find keeps the pairs that do and that `keep` accepts).
   bool boxesOverlap(int i, int j) const {
-    return (box_min_m_.col(i).array() <= box_max_m_.col(j).array()).all() &&
-           (box_min_m_.col(j).array() <= box_max_m_.col(i).array()).all();
+    const double* min_i = box_min_m_.col(i).data();
+    const double* max_i = box_max_m_.col(i).data();
+    const double* min_j = box_min_m_.col(j).data();
+    const double* max_j = box_max_m_.col(j).data();
+    // & not &&: all six tests, no branch between them.
+    return (min_i[0] <= max_j[0]) & (min_i[1] <= max_j[1]) & (min_i[2] <= max_j[2]) & (min_j[0] <= max_i[0]) &
+           (min_j[1] <= max_i[1]) & (min_j[2] <= max_i[2]);
   }
 
  private:
   using Cell = std::array<std::int64_t, 3>;
   static bool sameCell(const Cell& a, const Cell& b) { return a[0] == b[0] && a[1] == b[1] && a[2] == b[2]; }
+  /// Sorts *pairs (each (i, j) once, 0 <= i < j < count) as std::sort would: counted out by i, then each
+  /// i's few partners sorted; a comparison sort of the whole list cost a third of the broad phase.
+  void sortPairs(int count, std::vector<std::pair<int, int>>* pairs);
   /// Fills the table from the boxes; false when there is nothing to pair.
   bool hashBoxes(double reach_m);
-  /// Whether the boxes of i and j overlap and `cell` is the first cell they share (the cell of the larger
-  /// of their low corners, per axis): each overlapping pair is tested in exactly one cell.
-  bool firstSharedCell(int i, int j, const Cell& cell) const;
+  /// Whether `cell`, which the boxes of i and j both touch, is the first cell they share (the cell of the
+  /// larger of their low corners, per axis; floor is monotonic): each overlapping pair is kept in exactly
+  /// one cell.
+  bool isFirstSharedCell(int i, int j, const Cell& cell) const {
+    const Cell& low_i = low_cells_[static_cast<std::size_t>(i)];
+    const Cell& low_j = low_cells_[static_cast<std::size_t>(j)];
+    return (std::max(low_i[0], low_j[0]) == cell[0]) & (std::max(low_i[1], low_j[1]) == cell[1]) &
+           (std::max(low_i[2], low_j[2]) == cell[2]);
+  }
 
   double cell_m_ = 1.0;
   std::vector<std::uint32_t> entry_bucket_;  ///< per (point, cell) entry: its bucket
@@ -72,6 +88,8 @@ class SweptPairFinder {
   std::vector<int> sorted_points_;
   std::vector<Cell> sorted_cells_;
   std::vector<Cell> low_cells_;  ///< per point: the cell of its box's low corner
+  std::vector<int> first_start_;  ///< sortPairs: where each i's pairs start
+  std::vector<std::pair<int, int>> sorted_pairs_;
   Eigen::Matrix3Xd box_min_m_;
   Eigen::Matrix3Xd box_max_m_;
 };
