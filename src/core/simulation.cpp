@@ -135,7 +135,9 @@ ContactStats Simulation::integrateFrame(int substeps, StepReport* steps, SelfCol
   const Eigen::VectorXd& inverse_mass = force_model_.inverseMass_per_kg();
   // Static friction's test needs the forces where each step ended: one more evaluation a substep, only
   // in scenes with planes, boxes or spheres and friction (robot links on frames keep the velocity test).
-  // They are taken where the contacts will put each particle (on a surface it went into, not below it),
+  // They are taken where the contacts will put each particle (on a surface it went into, not below it;
+  // liftOntoSurfaces, which takes boxes after spheres where the contacts take them before, so a particle
+  // inside two overlapping colliders may be read on the other one's surface),
   // less the part the step's solve left unsolved (Integrator::subtractSolveShortfall): both are the step's
   // numerics, not the cloth's load, and on a fine grid's stiff springs they read as several times a
   // particle's weight, so that no particle of a folded towel's lower layer passed the test and the towel
