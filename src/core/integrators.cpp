@@ -252,6 +252,12 @@ StepReport ImplicitEuler::step(Dynamics& dynamics, double step_s, ClothState& st
   return report;
 }
 
+void ImplicitEuler::subtractSolveShortfall(double step_s, Eigen::Matrix3Xd& forces_N) const {
+  // Constrained particles' residuals are filtered to zero: their forces stay as read.
+  if (residual_.cols() != forces_N.cols() || !(step_s > 0.0)) return;
+  forces_N -= residual_ / step_s;
+}
+
 std::unique_ptr<Integrator> makeIntegrator(IntegratorKind kind, const SolverOptions& solver) {
   switch (kind) {
     case IntegratorKind::kForwardEuler:

@@ -135,6 +135,13 @@ ContactStats Simulation::integrateFrame(int substeps, StepReport* steps, SelfCol
   const Eigen::VectorXd& inverse_mass = force_model_.inverseMass_per_kg();
   // Static friction's test needs the forces where each step ended: one more evaluation a substep, only
   // in scenes with planes, boxes or spheres and friction (robot links on frames keep the velocity test).
+  // They are taken where the contacts will put each particle (on a surface it went into, not below it;
+  // liftOntoSurfaces, which takes boxes after spheres where the contacts take them before, so a particle
+  // inside two overlapping colliders may be read on the other one's surface),
+  // less the part the step's solve left unsolved (Integrator::subtractSolveShortfall): both are the step's
+  // numerics, not the cloth's load, and on a fine grid's stiff springs they read as several times a
+  // particle's weight, so that no particle of a folded towel's lower layer passed the test and the towel
+  // slid over the floor (doc/PHYSICS.md, "The fine-grid towel's slide over the floor").
   const ColliderSet& colliders = options_.colliders;
   const bool static_friction = options_.contact.friction > 0.0 &&
                                !(colliders.planes.empty() && colliders.boxes.empty() && colliders.spheres.empty());
@@ -152,7 +159,12 @@ ContactStats Simulation::integrateFrame(int substeps, StepReport* steps, SelfCol
     force_model_.enforceConstraints(state_.time_s, state_);
     if (!options_.colliders.empty()) {
       if (static_friction) {
-        force_model_.forces(state_.positions_m, state_.velocities_m_per_s, state_.time_s, contact_forces_N_);
+        contact_positions_m_ = state_.positions_m;
+        for (Eigen::Index i = 0; i < contact_positions_m_.cols(); ++i) {
+          if (inverse_mass[i] > 0.0) liftOntoSurfaces(colliders, state_.time_s, contact_positions_m_.col(i));
+        }
+        force_model_.forces(contact_positions_m_, state_.velocities_m_per_s, state_.time_s, contact_forces_N_);
+        integrator_->subtractSolveShortfall(step_s, contact_forces_N_);
       }
       contacts += resolveContacts(options_.colliders, options_.contact, t0_s, state_.time_s, inverse_mass,
                                   substep_start_positions_m_, state_.positions_m, state_.velocities_m_per_s,

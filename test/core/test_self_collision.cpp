@@ -174,8 +174,15 @@ void expectAFold(const FoldOutcome& outcome, double creep_bound_m_per_s) {
 /// (contact.cpp, respondAndTestStick); before, the whole towel drifted at 0.5-1.3 mm/s.
 constexpr double kRestCreep_m_per_s = 1e-3;
 
+/// Stiller than the issue asks: static friction reads the cloth's forces on the floor, not the step's
+/// numerics (Integrator::subtractSolveShortfall, forces read on the surface), and holds the towel to
+/// rounding (5e-17 m/s, measured); reading them as the step left them, it crept 3.5e-5 to 7e-5 m/s.
+constexpr double kStillTowel_m_per_s = 1e-9;
+
 TEST(SelfCollisionFold, A24x24TowelFoldedInHalfNeverCrossesItselfAndLiesFolded) {
-  expectAFold(runFold(24), kRestCreep_m_per_s);
+  const FoldOutcome outcome = runFold(24);
+  expectAFold(outcome, kRestCreep_m_per_s);
+  EXPECT_LT(outcome.rest_creep_m_per_s, kStillTowel_m_per_s);
 }
 
 TEST(SelfCollisionFold, A48x48TowelFoldedInHalfNeverCrossesItselfAndLiesFolded) {

@@ -120,6 +120,10 @@ class Integrator {
   /// Order of the global error (1, 1, 2, 4, 1).
   virtual int order() const = 0;
   virtual StepReport step(Dynamics& dynamics, double step_s, ClothState& state) = 0;
+  /// Takes off forces_N (N, world frame, per particle) what the last step's solve left unsolved, as a
+  /// force: forces read where a step ended then say what the cloth exerts, not what the solver's
+  /// tolerance left over. Nothing for a method that solves nothing (the explicit ones).
+  virtual void subtractSolveShortfall(double /*step_s*/, Eigen::Matrix3Xd& /*forces_N*/) const {}
 };
 
 /// Forward (explicit) Euler: x1 = x0 + h v0, v1 = v0 + h a(x0, v0). Gains energy on any undamped spring.
@@ -182,6 +186,13 @@ class ImplicitEuler final : public Integrator {
   IntegratorKind kind() const override { return IntegratorKind::kImplicitEuler; }
   int order() const override { return 1; }
   StepReport step(Dynamics& dynamics, double step_s, ClothState& state) override;
+  /// The residual r of the last step's system, over step_s: r = h F(end) - M dv for the force linearised
+  /// as the system has it (compressed springs without their transverse part, no wind), so F(end) - r / h
+  /// is what the step's velocity change says. For the stiff modes,
+  /// where a stopped solve leaves its error, that is the force an exact solve would have ended with
+  /// (their system is nearly h^2 K: r / h is K times the position error). Static friction's test reads
+  /// it (Simulation::integrateFrame).
+  void subtractSolveShortfall(double step_s, Eigen::Matrix3Xd& forces_N) const override;
 
  private:
   SolverOptions options_;

@@ -273,6 +273,7 @@ class Simulation {
   ClothState frame_start_;               ///< rollback point, scratch
   Eigen::Matrix3Xd substep_start_positions_m_;  ///< scratch for the contact sweep
   Eigen::Matrix3Xd contact_forces_N_;           ///< scratch: the forces static friction's test reads
+  Eigen::Matrix3Xd contact_positions_m_;        ///< scratch: where it reads them (lifted onto surfaces)
   Eigen::Matrix3Xf colors_;
   std::unique_ptr<Integrator> integrator_;
   SelfCollision self_collision_;  ///< scratch only: nothing carried from one substep to the next
