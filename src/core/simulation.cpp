@@ -137,8 +137,8 @@ ContactStats Simulation::integrateFrame(int substeps, StepReport* steps, SelfCol
   // in scenes with planes, boxes or spheres and friction (robot links on frames keep the velocity test).
   // They are taken where the contacts will put each particle (on a surface it went into, not below it;
   // liftOntoSurfaces, which takes boxes after spheres where the contacts take them before, so a particle
-  // inside two overlapping colliders may be read on the other one's surface),
-  // less the part the step's solve left unsolved (Integrator::subtractSolveShortfall): both are the step's
+  // inside two overlapping colliders may be read on the other one's surface), less the part the step's
+  // solve left unsolved (Integrator::subtractSolveShortfall): both are the step's
   // numerics, not the cloth's load, and on a fine grid's stiff springs they read as several times a
   // particle's weight, so that no particle of a folded towel's lower layer passed the test and the towel
   // slid over the floor (doc/PHYSICS.md, "The fine-grid towel's slide over the floor").

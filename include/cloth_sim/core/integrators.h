@@ -188,10 +188,9 @@ class ImplicitEuler final : public Integrator {
   StepReport step(Dynamics& dynamics, double step_s, ClothState& state) override;
   /// The residual r of the last step's system, over step_s: r = h F(end) - M dv for the force linearised
   /// as the system has it (compressed springs without their transverse part, no wind), so F(end) - r / h
-  /// is what the step's velocity change says. For the stiff modes,
-  /// where a stopped solve leaves its error, that is the force an exact solve would have ended with
-  /// (their system is nearly h^2 K: r / h is K times the position error). Static friction's test reads
-  /// it (Simulation::integrateFrame).
+  /// is the force the step's velocity change says acted, M dv / h, whatever the tolerance stopped the
+  /// solve at. Not the force a converged solve would have ended with: the error a stopped solve leaves
+  /// in the velocities stays. Static friction's test reads it (Simulation::integrateFrame).
   void subtractSolveShortfall(double step_s, Eigen::Matrix3Xd& forces_N) const override;
 
  private:
