@@ -148,9 +148,17 @@ SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfColli
   pushed_m_.assign(pairs_.size(), 0.0);
   normals_.assign(pairs_.size(), Eigen::Vector3d::Zero());
   moved_.assign(count, 0);
+  // What a sweep does with a pair depends only on its two particles' positions (and on what does not
+  // change over the sweeps): a pair it left alone is left alone again until one of them moves. Most pairs
+  // are far apart, and a later sweep passes over them on these two counters instead of their positions.
+  int pushes = 0;                            // positions changed so far
+  moved_at_.assign(count, 0);                // per particle: `pushes` after its last change
+  left_at_.assign(pairs_.size(), 0);         // per pair: 1 + `pushes` when a sweep last left it alone
   for (int sweep = 0; sweep < kResponseSweeps; ++sweep) {
     for (std::size_t p = 0; p < pairs_.size(); ++p) {
       const auto [i, j] = pairs_[p];
+      if (moved_at_[i] < left_at_[p] && moved_at_[j] < left_at_[p]) continue;
+      left_at_[p] = pushes + 1;
       const double weight_sum = w[i] + w[j];
       if (weight_sum == 0.0) continue;  // both on the floor (or pinned): it keeps them
       const Eigen::Vector3d was = start_m.col(j) - start_m.col(i);
@@ -183,11 +191,16 @@ SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfColli
       pushed_m_[p] += thickness_m - gap_m;
       normals_[p] = normal;
       moved_[i] = moved_[j] = 1;
+      moved_at_[i] = moved_at_[j] = ++pushes;
     }
     // What was pushed into a table or the floor goes back onto it; the next sweep pushes the other way.
     if (colliders.empty()) continue;
+    ++pushes;
     for (int i = 0; i < count; ++i) {
-      if (moved_[i]) liftOntoSurfaces(colliders, time_s, positions_m.col(i));
+      if (!moved_[i]) continue;
+      const Eigen::Vector3d was_m = positions_m.col(i);
+      liftOntoSurfaces(colliders, time_s, positions_m.col(i));
+      if (positions_m.col(i) != was_m) moved_at_[i] = pushes;
     }
   }
   // Friction between the layers: the pair's relative sliding over the substep, removed up to
