@@ -123,7 +123,7 @@ SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfColli
     row_of_[static_cast<std::size_t>(i)] = i / grid.cols;
     col_of_[static_cast<std::size_t>(i)] = i % grid.cols;
   }
-  // Captured by value: the broad phase asks this of every pair that shares a cell, most of them grid
+  // Captured by value: the broad phase asks this of every pair whose boxes overlap, most of them grid
   // neighbours, and through references each call read the vectors' addresses again.
   const int* const row_of = row_of_.data();
   const int* const col_of = col_of_.data();
@@ -153,14 +153,16 @@ SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfColli
   // What a sweep does with a pair depends only on its two particles' positions (and on what does not
   // change over the sweeps): a pair it left alone is left alone again until one of them moves. Most pairs
   // are far apart, and a later sweep passes over them on these two counters instead of their positions.
-  int pushes = 0;                            // positions changed so far
-  moved_at_.assign(count, 0);                // per particle: `pushes` after its last change
-  left_at_.assign(pairs_.size(), 0);         // per pair: 1 + `pushes` when a sweep last left it alone
+  // The clock ticks at every change of positions (a push, a pass lifting particles onto surfaces); at
+  // most 4 (pairs + 1) ticks a substep.
+  int clock = 0;
+  moved_at_.assign(count, 0);           // per particle: the clock after its last change
+  checked_at_.assign(pairs_.size(), 0);  // per pair: 1 + the clock when a sweep last checked it
   for (int sweep = 0; sweep < kResponseSweeps; ++sweep) {
     for (std::size_t p = 0; p < pairs_.size(); ++p) {
       const auto [i, j] = pairs_[p];
-      if (moved_at_[i] < left_at_[p] && moved_at_[j] < left_at_[p]) continue;
-      left_at_[p] = pushes + 1;
+      if (moved_at_[i] < checked_at_[p] && moved_at_[j] < checked_at_[p]) continue;
+      checked_at_[p] = clock + 1;
       const double weight_sum = w[i] + w[j];
       if (weight_sum == 0.0) continue;  // both on the floor (or pinned): it keeps them
       const Eigen::Vector3d was = start_m.col(j) - start_m.col(i);
@@ -198,16 +200,13 @@ SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfColli
       contact.pushed_m += thickness_m - gap_m;
       contact.normal = normal;
       moved_[i] = moved_[j] = 1;
-      moved_at_[i] = moved_at_[j] = ++pushes;
+      moved_at_[i] = moved_at_[j] = ++clock;
     }
     // What was pushed into a table or the floor goes back onto it; the next sweep pushes the other way.
     if (colliders.empty()) continue;
-    ++pushes;
+    ++clock;
     for (int i = 0; i < count; ++i) {
-      if (!moved_[i]) continue;
-      const Eigen::Vector3d was_m = positions_m.col(i);
-      liftOntoSurfaces(colliders, time_s, positions_m.col(i));
-      if (positions_m.col(i) != was_m) moved_at_[i] = pushes;
+      if (moved_[i] && liftOntoSurfaces(colliders, time_s, positions_m.col(i))) moved_at_[i] = clock;
     }
   }
   // Friction between the layers: the pair's relative sliding over the substep, removed up to

@@ -15,8 +15,10 @@ std::uint64_t SweptPairFinder::hashKey(const CellKey& key) {
   // Teschner et al. 2003's three large primes, then mixed so that the table's low bits depend on all of them.
   std::uint64_t mixed = static_cast<std::uint64_t>(key[0]) * 73856093u ^ static_cast<std::uint64_t>(key[1]) * 19349663u ^
                         static_cast<std::uint64_t>(key[2]) * 83492791u;
+  // The table's index is the low bits: fold the high half into them, spread every bit over the high
+  // ones by a multiplication (2^64 / the golden ratio, Fibonacci hashing), and fold those back down.
   mixed ^= mixed >> 32;
-  mixed *= 0x9E3779B97F4A7C15u;  // 2^64 / the golden ratio (Fibonacci hashing)
+  mixed *= 0x9E3779B97F4A7C15u;
   return mixed ^ (mixed >> 29);
 }
 
@@ -36,9 +38,8 @@ bool SweptPairFinder::hashBoxes(double reach_m) {
   // Cells as wide as the reach, unless a fast point's box would span more than kMaxSpan of them.
   const double widest_m = (boxes_m_.bottomRows<3>() - boxes_m_.topRows<3>()).maxCoeff();
   cell_m_ = std::max(reach_m, widest_m / kMaxSpan);
-  // At most half full: short probes.
   std::size_t capacity = 1;
-  while (capacity < 2 * static_cast<std::size_t>(count)) capacity <<= 1;
+  while (capacity < kSlotsPerPoint * static_cast<std::size_t>(count)) capacity <<= 1;
   table_.assign(capacity, 0);
   const std::size_t mask = capacity - 1;
   span_ = {0, 0, 0};

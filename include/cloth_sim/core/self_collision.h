@@ -139,8 +139,8 @@ class SelfCollision {
   std::vector<int> row_of_;  ///< per particle: its row and column on the grid
   std::vector<int> col_of_;
   std::vector<char> moved_;
-  std::vector<int> moved_at_;  ///< response sweeps: per particle, the push after which it last moved
-  std::vector<int> left_at_;   ///< per pair: 1 + the pushes before a sweep last left it alone
+  std::vector<int> moved_at_;    ///< response sweeps: per particle, the clock after its last change
+  std::vector<int> checked_at_;  ///< per pair: 1 + the clock when a sweep last checked it
   std::vector<char> frozen_;
 };
 

@@ -22,13 +22,17 @@ namespace cloth_sim::core {
 /// once, from the cell of its first point. Reuses its scratch memory from call to call.
 class SweptPairFinder {
  public:
-  /// Fewest cells along one axis that the widest box spans: cells as wide as the reach, unless a point
-  /// moves so far in one substep that its box would span more. A cell's partners are looked for in up to
-  /// (2 kMaxSpan + 1)^3 cells around it, so a fast point makes the cells larger for that call (fewer,
+  /// The widest box spans at most this many cell widths: cells as wide as the reach, unless a point moves
+  /// so far in one substep that its box (its motion plus the reach) is wider than that. A cell's partners
+  /// are looked for in about (2 kMaxSpan + 1)^3 cells around it (one more per axis where rounding puts a
+  /// box's ends in cells further apart), so a fast point makes the cells larger for that call (fewer,
   /// fuller cells) rather than that many.
   static constexpr int kMaxSpan = 2;
+  /// Hash table slots per point: at most half full, so probes are short and always end.
+  static constexpr std::size_t kSlotsPerPoint = 2;
 
-  /// start_m, end_m: 3 x N, any common frame. *pairs is replaced. Keep: bool(int i, int j), i < j.
+  /// start_m, end_m: 3 x N, finite, any common frame (cells are integer coordinates: |x| / reach must stay
+  /// far below 2^62). *pairs is replaced. Keep: bool(int i, int j), i < j.
   template <typename Keep>
   void find(const Eigen::Matrix3Xd& start_m, const Eigen::Matrix3Xd& end_m, double reach_m, const Keep& keep,
             std::vector<std::pair<int, int>>* pairs) {
