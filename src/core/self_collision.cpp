@@ -123,7 +123,7 @@ SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfColli
     row_of_[static_cast<std::size_t>(i)] = i / grid.cols;
     col_of_[static_cast<std::size_t>(i)] = i % grid.cols;
   }
-  // Captured by value: the broad phase asks this of every pair that shares a cell, most of them grid
+  // Captured by value: the broad phase asks this of every pair whose boxes overlap, most of them grid
   // neighbours, and through references each call read the vectors' addresses again.
   const int* const row_of = row_of_.data();
   const int* const col_of = col_of_.data();
@@ -145,12 +145,24 @@ SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfColli
   // is within 45 degrees of that line: a gap of at least |now| / sqrt(2)); the sweep skips it before
   // working that normal out. Most candidate pairs are such pairs.
   const double far_squared = kFarSquaredThicknesses * thickness_m * thickness_m;
-  pushed_m_.assign(pairs_.size(), 0.0);
-  normals_.assign(pairs_.size(), Eigen::Vector3d::Zero());
+  // Only the pairs a sweep pushed go on to friction and the velocities: a few thousand of the 10^5 pairs
+  // of a folded 64 x 64 towel at rest.
+  contacts_.clear();
+  contact_of_.assign(pairs_.size(), -1);
   moved_.assign(count, 0);
+  // What a sweep does with a pair depends only on its two particles' positions (and on what does not
+  // change over the sweeps): a pair it left alone is left alone again until one of them moves. Most pairs
+  // are far apart, and a later sweep passes over them on these two counters instead of their positions.
+  // The clock ticks at every change of positions (a push, a pass lifting particles onto surfaces); at
+  // most 4 (pairs + 1) ticks a substep.
+  int clock = 0;
+  moved_at_.assign(count, 0);           // per particle: the clock after its last change
+  checked_at_.assign(pairs_.size(), 0);  // per pair: 1 + the clock when a sweep last checked it
   for (int sweep = 0; sweep < kResponseSweeps; ++sweep) {
     for (std::size_t p = 0; p < pairs_.size(); ++p) {
       const auto [i, j] = pairs_[p];
+      if (moved_at_[i] < checked_at_[p] && moved_at_[j] < checked_at_[p]) continue;
+      checked_at_[p] = clock + 1;
       const double weight_sum = w[i] + w[j];
       if (weight_sum == 0.0) continue;  // both on the floor (or pinned): it keeps them
       const Eigen::Vector3d was = start_m.col(j) - start_m.col(i);
@@ -180,27 +192,35 @@ SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfColli
       const Eigen::Vector3d push = (thickness_m - gap_m) * normal;
       positions_m.col(i) -= (w[i] / weight_sum) * push;
       positions_m.col(j) += (w[j] / weight_sum) * push;
-      pushed_m_[p] += thickness_m - gap_m;
-      normals_[p] = normal;
+      if (contact_of_[p] < 0) {
+        contact_of_[p] = static_cast<int>(contacts_.size());
+        contacts_.push_back(Contact{static_cast<int>(p), 0.0, normal});
+      }
+      Contact& contact = contacts_[static_cast<std::size_t>(contact_of_[p])];
+      contact.pushed_m += thickness_m - gap_m;
+      contact.normal = normal;
       moved_[i] = moved_[j] = 1;
+      moved_at_[i] = moved_at_[j] = ++clock;
     }
     // What was pushed into a table or the floor goes back onto it; the next sweep pushes the other way.
     if (colliders.empty()) continue;
+    ++clock;
     for (int i = 0; i < count; ++i) {
-      if (moved_[i]) liftOntoSurfaces(colliders, time_s, positions_m.col(i));
+      if (moved_[i] && liftOntoSurfaces(colliders, time_s, positions_m.col(i))) moved_at_[i] = clock;
     }
   }
   // Friction between the layers: the pair's relative sliding over the substep, removed up to
   // friction x the normal push (the position form of Coulomb's law; its velocity follows below).
-  for (std::size_t p = 0; p < pairs_.size(); ++p) {
-    if (pushed_m_[p] <= 0.0) continue;
-    ++stats.contacts;
-    const auto [i, j] = pairs_[p];
+  // In the pairs' order (the sweeps list them in the order they first pushed them).
+  std::sort(contacts_.begin(), contacts_.end(), [](const Contact& a, const Contact& b) { return a.pair < b.pair; });
+  stats.contacts = static_cast<int>(contacts_.size());
+  for (const Contact& contact : contacts_) {
+    const auto [i, j] = pairs_[static_cast<std::size_t>(contact.pair)];
     const Eigen::Vector3d slide = (positions_m.col(j) - start_m.col(j)) - (positions_m.col(i) - start_m.col(i));
-    const Eigen::Vector3d tangential = slide - slide.dot(normals_[p]) * normals_[p];
+    const Eigen::Vector3d tangential = slide - slide.dot(contact.normal) * contact.normal;
     const double length_m = tangential.norm();
     if (length_m <= 0.0) continue;
-    const double limit_m = options.friction * pushed_m_[p];
+    const double limit_m = options.friction * contact.pushed_m;
     const Eigen::Vector3d removed = length_m <= limit_m ? tangential : Eigen::Vector3d(tangential * (limit_m / length_m));
     const double weight_sum = w[i] + w[j];
     positions_m.col(i) += (w[i] / weight_sum) * removed;
@@ -214,11 +234,10 @@ SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfColli
   // layer's weight and its friction holds both layers (without the reaction the lower layer slid out from
   // under the upper one; with the pair's masses shared the upper layer never came to rest).
   const Eigen::VectorXd& true_weight = inverse_mass_per_kg;
-  for (std::size_t p = 0; p < pairs_.size(); ++p) {
-    if (pushed_m_[p] <= 0.0) continue;
-    const auto [i, j] = pairs_[p];
+  for (const Contact& contact : contacts_) {
+    const auto [i, j] = pairs_[static_cast<std::size_t>(contact.pair)];
     const double weight_sum = w[i] + w[j];
-    const Eigen::Vector3d& normal = normals_[p];
+    const Eigen::Vector3d& normal = contact.normal;
     const Eigen::Vector3d relative = velocities_m_per_s.col(j) - velocities_m_per_s.col(i);
     const double approach = std::min(0.0, relative.dot(normal));
     const Eigen::Vector3d sliding = relative - relative.dot(normal) * normal;

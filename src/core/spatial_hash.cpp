@@ -4,67 +4,80 @@
 
 namespace cloth_sim::core {
 
-namespace {
-
-/// The hash of an integer cell (Teschner et al. 2003's three large primes).
-std::uint32_t cellHash(std::int64_t x, std::int64_t y, std::int64_t z) {
-  const std::uint64_t mixed = static_cast<std::uint64_t>(x * 73856093) ^ static_cast<std::uint64_t>(y * 19349663) ^
-                              static_cast<std::uint64_t>(z * 83492791);
-  return static_cast<std::uint32_t>(mixed ^ (mixed >> 32));
-}
-
-}  // namespace
-
 void SweptPairFinder::setBoxes(const Eigen::Matrix3Xd& start_m, const Eigen::Matrix3Xd& end_m, double reach_m) {
   const double half_m = 0.5 * reach_m;
-  box_min_m_ = start_m.cwiseMin(end_m).array() - half_m;
-  box_max_m_ = start_m.cwiseMax(end_m).array() + half_m;
+  boxes_m_.resize(6, start_m.cols());
+  boxes_m_.topRows<3>() = start_m.cwiseMin(end_m).array() - half_m;
+  boxes_m_.bottomRows<3>() = start_m.cwiseMax(end_m).array() + half_m;
+}
+
+std::uint64_t SweptPairFinder::hashKey(const CellKey& key) {
+  // Teschner et al. 2003's three large primes, then mixed so that the table's low bits depend on all of them.
+  std::uint64_t mixed = static_cast<std::uint64_t>(key[0]) * 73856093u ^ static_cast<std::uint64_t>(key[1]) * 19349663u ^
+                        static_cast<std::uint64_t>(key[2]) * 83492791u;
+  // The table's index is the low bits: fold the high half into them, spread every bit over the high
+  // ones by a multiplication (2^64 / the golden ratio, Fibonacci hashing), and fold those back down.
+  mixed ^= mixed >> 32;
+  mixed *= 0x9E3779B97F4A7C15u;
+  return mixed ^ (mixed >> 29);
+}
+
+int SweptPairFinder::cellAt(const CellKey& key) const {
+  const std::size_t mask = table_.size() - 1;
+  for (std::size_t slot = hashKey(key) & mask; table_[slot] != 0; slot = (slot + 1) & mask) {
+    const int cell = table_[slot] - 1;
+    if (cells_[static_cast<std::size_t>(cell)].key == key) return cell;
+  }
+  return -1;
 }
 
 bool SweptPairFinder::hashBoxes(double reach_m) {
-  const int count = static_cast<int>(box_min_m_.cols());
-  bucket_start_.clear();
+  const int count = static_cast<int>(boxes_m_.cols());
+  cells_.clear();
   if (count < 2 || !(reach_m > 0.0)) return false;
-  // Cells as wide as the reach, unless a fast point's box would span more than kMaxCellsPerAxis of them.
-  const double widest_m = (box_max_m_ - box_min_m_).maxCoeff();
-  cell_m_ = std::max(reach_m, widest_m / kMaxCellsPerAxis);
-  entry_bucket_.clear();
-  entry_point_.clear();
-  entry_cell_.clear();
-  low_cells_.resize(static_cast<std::size_t>(count));
+  // Cells as wide as the reach, unless a fast point's box would span more than kMaxSpan of them.
+  const double widest_m = (boxes_m_.bottomRows<3>() - boxes_m_.topRows<3>()).maxCoeff();
+  cell_m_ = std::max(reach_m, widest_m / kMaxSpan);
+  std::size_t capacity = 1;
+  while (capacity < kSlotsPerPoint * static_cast<std::size_t>(count)) capacity <<= 1;
+  table_.assign(capacity, 0);
+  const std::size_t mask = capacity - 1;
+  span_ = {0, 0, 0};
+  cell_of_.resize(static_cast<std::size_t>(count));
   for (int i = 0; i < count; ++i) {
-    const Eigen::Array3d lo = (box_min_m_.col(i).array() / cell_m_).floor();
-    const Eigen::Array3d hi = (box_max_m_.col(i).array() / cell_m_).floor();
-    low_cells_[static_cast<std::size_t>(i)] = {static_cast<std::int64_t>(lo.x()), static_cast<std::int64_t>(lo.y()),
-                                               static_cast<std::int64_t>(lo.z())};
-    for (auto x = static_cast<std::int64_t>(lo.x()); x <= static_cast<std::int64_t>(hi.x()); ++x) {
-      for (auto y = static_cast<std::int64_t>(lo.y()); y <= static_cast<std::int64_t>(hi.y()); ++y) {
-        for (auto z = static_cast<std::int64_t>(lo.z()); z <= static_cast<std::int64_t>(hi.z()); ++z) {
-          entry_bucket_.push_back(cellHash(x, y, z));
-          entry_point_.push_back(i);
-          entry_cell_.push_back({x, y, z});
-        }
-      }
+    const Eigen::Array3d lo = (boxes_m_.col(i).head<3>().array() / cell_m_).floor();
+    const Eigen::Array3d hi = (boxes_m_.col(i).tail<3>().array() / cell_m_).floor();
+    const CellKey key{static_cast<std::int64_t>(lo.x()), static_cast<std::int64_t>(lo.y()),
+                      static_cast<std::int64_t>(lo.z())};
+    CellKey span{};
+    for (int axis = 0; axis < 3; ++axis) {
+      span[axis] = static_cast<std::int64_t>(hi[axis]) - key[axis];
+      span_[axis] = std::max(span_[axis], span[axis]);
     }
+    std::size_t slot = hashKey(key) & mask;
+    while (table_[slot] != 0 && cells_[static_cast<std::size_t>(table_[slot] - 1)].key != key) slot = (slot + 1) & mask;
+    if (table_[slot] == 0) {
+      cells_.push_back(Cell{key, span, 0, 0});
+      table_[slot] = static_cast<int>(cells_.size());
+    }
+    Cell& cell = cells_[static_cast<std::size_t>(table_[slot] - 1)];
+    for (int axis = 0; axis < 3; ++axis) cell.span[axis] = std::max(cell.span[axis], span[axis]);
+    ++cell.end;  // counts its points until the offsets below
+    cell_of_[static_cast<std::size_t>(i)] = table_[slot] - 1;
   }
-  // About two buckets per entry: few unrelated cells share one.
-  const std::uint32_t buckets = static_cast<std::uint32_t>(2 * entry_point_.size() + 1);
-  bucket_start_.assign(buckets + 1, 0);
-  for (std::uint32_t& bucket : entry_bucket_) {
-    bucket %= buckets;
-    ++bucket_start_[bucket + 1];
+  int offset = 0;
+  for (Cell& cell : cells_) {
+    cell.begin = offset;
+    offset += cell.end;
+    cell.end = cell.begin;  // filled below
   }
-  for (std::uint32_t b = 0; b < buckets; ++b) bucket_start_[b + 1] += bucket_start_[b];
-  sorted_points_.resize(entry_point_.size());
-  sorted_cells_.resize(entry_point_.size());
-  std::vector<int>& next = bucket_start_;  // filled front to back, then shifted back below
-  for (std::size_t e = 0; e < entry_point_.size(); ++e) {
-    const int slot = next[entry_bucket_[e]]++;
-    sorted_points_[slot] = entry_point_[e];
-    sorted_cells_[slot] = entry_cell_[e];
+  sorted_points_.resize(static_cast<std::size_t>(count));
+  sorted_boxes_m_.resize(6, count);
+  for (int i = 0; i < count; ++i) {
+    const int slot = cells_[static_cast<std::size_t>(cell_of_[static_cast<std::size_t>(i)])].end++;
+    sorted_points_[static_cast<std::size_t>(slot)] = i;
+    sorted_boxes_m_.col(slot) = boxes_m_.col(i);
   }
-  for (std::uint32_t b = buckets; b > 0; --b) next[b] = next[b - 1];
-  next[0] = 0;
   return true;
 }
 

@@ -51,6 +51,22 @@ TEST(SelfCollisionKernels, ClosestApproachOfTwoStraightPaths) {
   EXPECT_NEAR(closestApproach_m({0, 0, 0}, {5, 5, 5}, {1, 0, 0}, {6, 5, 5}), 1.0, 1e-15);
 }
 
+/// Every pair (i < j) whose boxes overlap and that keep accepts, by testing all of them.
+template <typename Keep>
+std::vector<std::pair<int, int>> overlappingPairs(const Eigen::Matrix3Xd& start, const Eigen::Matrix3Xd& end,
+                                                  double reach, const Keep& keep) {
+  const Eigen::Matrix3Xd lo = start.cwiseMin(end).array() - 0.5 * reach;
+  const Eigen::Matrix3Xd hi = start.cwiseMax(end).array() + 0.5 * reach;
+  std::vector<std::pair<int, int>> pairs;
+  for (int i = 0; i < start.cols(); ++i) {
+    for (int j = i + 1; j < start.cols(); ++j) {
+      const bool overlap = (lo.col(i).array() <= hi.col(j).array()).all() && (lo.col(j).array() <= hi.col(i).array()).all();
+      if (overlap && keep(i, j)) pairs.emplace_back(i, j);
+    }
+  }
+  return pairs;
+}
+
 TEST(SweptPairFinder, FindsExactlyThePairsWhoseGrownSweptBoxesOverlap) {
   std::mt19937 random(15);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
@@ -68,17 +84,46 @@ TEST(SweptPairFinder, FindsExactlyThePairsWhoseGrownSweptBoxesOverlap) {
   SweptPairFinder finder;
   std::vector<std::pair<int, int>> found;
   finder.find(start, end, reach, keep, &found);
-  std::vector<std::pair<int, int>> expected;
-  const Eigen::Matrix3Xd lo = start.cwiseMin(end).array() - 0.5 * reach;
-  const Eigen::Matrix3Xd hi = start.cwiseMax(end).array() + 0.5 * reach;
-  for (int i = 0; i < count; ++i) {
-    for (int j = i + 1; j < count; ++j) {
-      const bool overlap = (lo.col(i).array() <= hi.col(j).array()).all() && (lo.col(j).array() <= hi.col(i).array()).all();
-      if (overlap && keep(i, j)) expected.emplace_back(i, j);
-    }
-  }
+  const std::vector<std::pair<int, int>> expected = overlappingPairs(start, end, reach, keep);
   EXPECT_GT(expected.size(), 100u);
   EXPECT_EQ(found, expected);  // the same pairs, in increasing order
+}
+
+TEST(SweptPairFinder, FindsTheSamePairsOnAFoldedSheetAtRestAndWhileOneHalfIsThrown) {
+  // A 30 x 30 sheet, 1 cm apart, folded over itself 1.5 cm above its lower half, about a corner at
+  // negative coordinates (cells on both sides of zero), and the grid's neighbours turned away as
+  // self-collision does. At rest (start = end: the list self-collision keeps) every box spans the same
+  // cells; then the upper half is thrown down and sideways, so its boxes are several cells wide and the
+  // lower half's one.
+  const int side = 30;
+  const double spacing = 0.01;
+  Eigen::Matrix3Xd rest(3, side * side);
+  for (int r = 0; r < side; ++r) {
+    for (int c = 0; c < side; ++c) {
+      const bool upper = r >= side / 2;
+      const double v = upper ? (side - 1 - r) * spacing : r * spacing;
+      rest.col(r * side + c) << -0.2 + c * spacing, -0.1 + v, upper ? 0.015 : 0.0;
+    }
+  }
+  const auto apart = [side](int i, int j) {
+    const int dr = j / side - i / side;
+    const int dc = j % side - i % side;
+    return dr * dr + dc * dc > 9;
+  };
+  SweptPairFinder finder;
+  std::vector<std::pair<int, int>> found;
+  const double reach = 0.035;
+  finder.find(rest, rest, reach, apart, &found);
+  const std::vector<std::pair<int, int>> at_rest = overlappingPairs(rest, rest, reach, apart);
+  EXPECT_GT(at_rest.size(), 10000u);
+  EXPECT_EQ(found, at_rest);
+
+  Eigen::Matrix3Xd thrown = rest;
+  for (int i = side * side / 2; i < side * side; ++i) thrown.col(i) += Eigen::Vector3d(0.03, -0.05, -0.1);
+  finder.find(rest, thrown, reach, apart, &found);
+  const std::vector<std::pair<int, int>> while_thrown = overlappingPairs(rest, thrown, reach, apart);
+  EXPECT_GT(while_thrown.size(), at_rest.size());
+  EXPECT_EQ(found, while_thrown);
 }
 
 TEST(SelfCollisionOptions, TheDefaultThicknessIsOneAndAHalfCellDiagonals) {

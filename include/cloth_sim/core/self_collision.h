@@ -128,11 +128,19 @@ class SelfCollision {
   Eigen::Matrix3Xd after_step_m_;     ///< the substep's result before the response moved it
   Eigen::VectorXd supported_weight_;  ///< inverse mass, 0 for a particle a table or the floor holds
   Eigen::Matrix3Xd surface_normals_;  ///< for those, the surface's outward normal
-  std::vector<double> pushed_m_;     ///< per pair: the normal push the response gave it
-  std::vector<Eigen::Vector3d> normals_;
+  /// A pair the response pushed: how far along its normal in all (m), and the normal of its last push.
+  struct Contact {
+    int pair = 0;  ///< index in pairs_
+    double pushed_m = 0.0;
+    Eigen::Vector3d normal;
+  };
+  std::vector<Contact> contacts_;
+  std::vector<int> contact_of_;  ///< per pair: its index in contacts_, -1 if not pushed
   std::vector<int> row_of_;  ///< per particle: its row and column on the grid
   std::vector<int> col_of_;
   std::vector<char> moved_;
+  std::vector<int> moved_at_;    ///< response sweeps: per particle, the clock after its last change
+  std::vector<int> checked_at_;  ///< per pair: 1 + the clock when a sweep last checked it
   std::vector<char> frozen_;
 };
 
