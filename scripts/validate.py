@@ -321,6 +321,8 @@ def main():
          % DRAPE_SECONDS)
     emit("than the cost, use a grid whose spacing is under a bending length. The curvature model's cost per")
     emit("frame against the paper's springs at %d per side is in the table (ms per frame)." % DRAPE_SPRING_SIDE)
+    emit("`compression_model: buckling`, springs that give way at the fabric's own buckling load, narrows the")
+    emit("spread to 5-14 % (doc/PHYSICS.md, \"Compression\"; not run here: these tables are linear springs).")
     emit("")
     if not args.quick:
         finer = {}

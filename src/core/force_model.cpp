@@ -74,6 +74,7 @@ ClothForceModel::ActiveFamilies ClothForceModel::activeFamilies() const {
     if (!spring.enabled || (spring.stiffness_N_per_m == 0.0 && spring.damping_N_s_per_m == 0.0)) continue;
     active.family[active.count++] = {kStencilFamilies[f].dr, kStencilFamilies[f].dc, rest_length_m_[f],
                                      spring.stiffness_N_per_m, spring.damping_N_s_per_m,
+                                     springCompressionCap_N(spring, rest_length_m_[f]),
                                      grid_.hasOutline() ? present_[f].data() : nullptr};
   }
   return active;

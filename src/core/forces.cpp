@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace cloth_sim::core {
 
@@ -16,6 +17,11 @@ constexpr double kDegenerateLength_m = 1e-6;
 constexpr double kOneThird = 1.0 / 3.0;
 
 }  // namespace
+
+double springCompressionCap_N(const SpringOptions& options, double rest_length_m) {
+  if (!(options.buckling_N_m3 > 0.0) || !(rest_length_m > 0.0)) return std::numeric_limits<double>::infinity();
+  return options.buckling_N_m3 / (rest_length_m * rest_length_m * rest_length_m);
+}
 
 void accumulateSpringForces(const SpringSet& springs, const SpringOptions& options,
                             const Eigen::Matrix3Xd& positions_m, const Eigen::Matrix3Xd& velocities_m_per_s,
@@ -31,8 +37,9 @@ void accumulateSpringForces(const SpringSet& springs, const SpringOptions& optio
     if (length_m < kDegenerateLength_m) continue;
     const Eigen::Vector3d direction = d / length_m;
     const double separation_rate = (velocities_m_per_s.col(j) - velocities_m_per_s.col(i)).dot(direction);
-    const Eigen::Vector3d force_on_i =
-        (ks * (length_m - springs.rest_length_m[s]) + kd * separation_rate) * direction;
+    const double cap_N = springCompressionCap_N(options, springs.rest_length_m[s]);
+    const double elastic_N = std::max(ks * (length_m - springs.rest_length_m[s]), -cap_N);
+    const Eigen::Vector3d force_on_i = (elastic_N + kd * separation_rate) * direction;
     forces_N.col(i) += force_on_i;
     forces_N.col(j) -= force_on_i;
   }
@@ -98,7 +105,15 @@ double springPotentialEnergy(const SpringSet& springs, const SpringOptions& opti
   for (std::size_t s = 0; s < springs.size(); ++s) {
     const double stretch_m =
         (positions_m.col(springs.second[s]) - positions_m.col(springs.first[s])).norm() - springs.rest_length_m[s];
-    energy_J += 0.5 * options.stiffness_N_per_m * stretch_m * stretch_m;
+    const double ks = options.stiffness_N_per_m;
+    const double cap_N = springCompressionCap_N(options, springs.rest_length_m[s]);
+    if (ks * stretch_m < -cap_N) {
+      // Past the cap the force is constant: the energy grows linearly from where the cap was reached.
+      const double capped_m = cap_N / ks;
+      energy_J += 0.5 * ks * capped_m * capped_m + cap_N * (-stretch_m - capped_m);
+    } else {
+      energy_J += 0.5 * ks * stretch_m * stretch_m;
+    }
   }
   return energy_J;
 }

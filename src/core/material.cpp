@@ -29,6 +29,21 @@ constexpr double kBendSpringsInStretch = 4.0;
 
 const char* bendModelName(BendModel model) { return model == BendModel::kCurvature ? "curvature" : "springs"; }
 
+const char* compressionModelName(CompressionModel model) {
+  return model == CompressionModel::kBuckling ? "buckling" : "linear";
+}
+
+bool parseCompressionModelName(const std::string& name, CompressionModel* model) {
+  if (name == "linear") {
+    *model = CompressionModel::kLinear;
+  } else if (name == "buckling") {
+    *model = CompressionModel::kBuckling;
+  } else {
+    return false;
+  }
+  return true;
+}
+
 bool parseBendModelName(const std::string& name, BendModel* model) {
   if (name == "springs") {
     *model = BendModel::kSprings;
@@ -98,6 +113,9 @@ MaterialConstants materialConstants(const MaterialOptions& m, BendModel bend_mod
   constants.springs[static_cast<int>(SpringKind::kStructural)] = {
       true, c11 - G - kBendSpringsInStretch * bend.stiffness_N_per_m, 0.0};
   for (SpringOptions& spring : constants.springs) spring.damping_N_s_per_m = m.damping_s * spring.stiffness_N_per_m;
+  constexpr double kPiSquared = 9.8696044010893586;
+  constants.structural_buckling_N_m3 = kPiSquared * m.bending_rigidity_N_m * du_m * dv_m;
+  constants.shear_buckling_N_m3 = 0.5 * constants.structural_buckling_N_m3;
   return constants;
 }
 

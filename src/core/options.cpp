@@ -218,6 +218,10 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
     problems.fail("u_axis and v_axis: must be orthogonal");
   }
   problems.finiteVector("gravity", o.gravity_m_per_s2, L::kMaxAcceleration_m_per_s2);
+  if (o.compression_model == CompressionModel::kBuckling && !o.has_material) {
+    problems.fail("compression_model = buckling: needs a material (its bending_rigidity): give `material`, or "
+                  "use compression_model = linear");
+  }
   if (o.bend_model == BendModel::kCurvature && !o.has_material) {
     problems.fail("bend_model = curvature: needs a material (its bending_rigidity): give `material`, or use "
                   "bend_model = springs");
@@ -376,6 +380,10 @@ SceneOptions resolveMaterial(const SceneOptions& options) {
                            .sum();
   }
   resolved.springs = constants.springs;
+  if (options.compression_model == CompressionModel::kBuckling) {
+    resolved.springs[static_cast<int>(SpringKind::kStructural)].buckling_N_m3 = constants.structural_buckling_N_m3;
+    resolved.springs[static_cast<int>(SpringKind::kShear)].buckling_N_m3 = constants.shear_buckling_N_m3;
+  }
   return resolved;
 }
 

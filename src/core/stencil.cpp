@@ -35,7 +35,7 @@ inline double inverseLength(double length_m) { return length_m > kStencilDegener
 #define CLOTH_SIM_VECTOR_CLONES
 #endif
 
-CLOTH_SIM_VECTOR_CLONES void springForceRow(int count, int offset, double ks, double kd, double rest, const double* __restrict px,
+CLOTH_SIM_VECTOR_CLONES void springForceRow(int count, int offset, double ks, double kd, double rest, double cap, const double* __restrict px,
                     const double* __restrict py, const double* __restrict pz, const double* __restrict vx,
                     const double* __restrict vy, const double* __restrict vz, double* __restrict fx,
                     double* __restrict fy, double* __restrict fz) {
@@ -47,14 +47,17 @@ CLOTH_SIM_VECTOR_CLONES void springForceRow(int count, int offset, double ks, do
     const double length = std::sqrt(dx * dx + dy * dy + dz * dz);
     const double inverse = inverseLength(length);
     const double separation_rate = ((vx[j] - vx[i]) * dx + (vy[j] - vy[i]) * dy + (vz[j] - vz[i]) * dz) * inverse;
-    const double magnitude = (ks * (length - rest) + kd * separation_rate) * inverse;
+    // The cap: at most the load at which the strip of fabric the spring stands for buckles (max with
+    // -infinity, the linear spring, changes no bit).
+    const double elastic = std::max(ks * (length - rest), -cap);
+    const double magnitude = (elastic + kd * separation_rate) * inverse;
     fx[i] = magnitude * dx;
     fy[i] = magnitude * dy;
     fz[i] = magnitude * dz;
   }
 }
 
-CLOTH_SIM_VECTOR_CLONES void linearizeRow(int count, int offset, double ks, double rest, const double* __restrict px,
+CLOTH_SIM_VECTOR_CLONES void linearizeRow(int count, int offset, double ks, double rest, double cap, const double* __restrict px,
                   const double* __restrict py, const double* __restrict pz, double* __restrict inverse_length,
                   double* __restrict transverse) {
   for (int i = 0; i < count; ++i) {
@@ -62,10 +65,11 @@ CLOTH_SIM_VECTOR_CLONES void linearizeRow(int count, int offset, double ks, doub
     const double dx = px[j] - px[i];
     const double dy = py[j] - py[i];
     const double dz = pz[j] - pz[i];
-    const double inverse = inverseLength(std::sqrt(dx * dx + dy * dy + dz * dz));
+    const double length = std::sqrt(dx * dx + dy * dy + dz * dz);
+    const double inverse = inverseLength(length);
     inverse_length[i] = inverse;
     const double across = 1.0 - rest * inverse;
-    transverse[i] = ks * (across > 0.0 ? across : 0.0);
+    transverse[i] = ks * (length - rest) < -cap ? kCappedSpring : ks * (across > 0.0 ? across : 0.0);
   }
 }
 
@@ -85,8 +89,11 @@ CLOTH_SIM_VECTOR_CLONES void differentialRow(int count, int offset, double ks, d
     const double dwx = wx[j] - wx[i];
     const double dwy = wy[j] - wy[i];
     const double dwz = wz[j] - wz[i];
-    const double along = (scale_x * (ks - transverse[i]) + kd_scaled) * (ux * dwx + uy * dwy + uz * dwz);
-    const double across = scale_x * transverse[i];
+    // A capped spring has no stiffness: neither across (a = 0) nor along it (Ks - a = 0).
+    const double a = transverse[i] > 0.0 ? transverse[i] : 0.0;
+    const double stiffness_along = transverse[i] < 0.0 ? 0.0 : ks - a;
+    const double along = (scale_x * stiffness_along + kd_scaled) * (ux * dwx + uy * dwy + uz * dwz);
+    const double across = scale_x * a;
     fx[i] = across * dwx + along * ux;
     fy[i] = across * dwy + along * uy;
     fz[i] = across * dwz + along * uz;
@@ -102,8 +109,10 @@ CLOTH_SIM_VECTOR_CLONES void blockRow(int count, int offset, double ks, double k
     const double ux = (px[j] - px[i]) * inverse_length[i];
     const double uy = (py[j] - py[i]) * inverse_length[i];
     const double uz = (pz[j] - pz[i]) * inverse_length[i];
-    const double across = scale_x * transverse[i];
-    const double along = scale_x * (ks - transverse[i]) + kd_scaled;
+    const double a = transverse[i] > 0.0 ? transverse[i] : 0.0;
+    const double stiffness_along = transverse[i] < 0.0 ? 0.0 : ks - a;
+    const double across = scale_x * a;
+    const double along = scale_x * stiffness_along + kd_scaled;
     bxx[i] = across + along * ux * ux;
     byy[i] = across + along * uy * uy;
     bzz[i] = across + along * uz * uz;
@@ -193,7 +202,7 @@ void stencilAccumulateSpringForces(int rows, int cols, const StencilFamily* fami
   accumulateBand(rows, cols, families, family_count, 3, row_scratch, out, -1.0, row_begin, row_end,
                  [&](int, const StencilFamily& family, int count, int offset, std::ptrdiff_t first, double** spring) {
                    springForceRow(count, offset, family.stiffness_N_per_m, family.damping_N_s_per_m,
-                                  family.rest_length_m, x.x + first, x.y + first, x.z + first, v.x + first,
+                                  family.rest_length_m, family.compression_cap_N, x.x + first, x.y + first, x.z + first, v.x + first,
                                   v.y + first, v.z + first, spring[0], spring[1], spring[2]);
                    clearMissingSprings(family, count, first, 3, spring);
                  });
@@ -208,7 +217,7 @@ void stencilLinearize(int rows, int cols, const StencilFamily& family, ConstFiel
     if (range.last <= range.first) continue;
     const std::ptrdiff_t first = static_cast<std::ptrdiff_t>(r) * cols + range.first;
     linearizeRow(range.last - range.first, offset, family.stiffness_N_per_m, family.rest_length_m,
-                 positions_m.x + first, positions_m.y + first, positions_m.z + first, inverse_length_per_m + first,
+                 family.compression_cap_N, positions_m.x + first, positions_m.y + first, positions_m.z + first, inverse_length_per_m + first,
                  transverse_stiffness_N_per_m + first);
     // A missing spring linearises to nothing: no direction and no transverse stiffness make its
     // differential and its blocks zero.

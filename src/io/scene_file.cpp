@@ -279,6 +279,9 @@ std::map<std::string, Setter> makeSetters() {
   s["bend_model"] = [](const YAML::Node& n, SceneOptions& o) {
     if (!parseBendModelName(readString(n), &o.bend_model)) throw WrongType{"springs or curvature"};
   };
+  s["compression_model"] = [](const YAML::Node& n, SceneOptions& o) {
+    if (!parseCompressionModelName(readString(n), &o.compression_model)) throw WrongType{"linear or buckling"};
+  };
   s["wind_enabled"] = [](const YAML::Node& n, SceneOptions& o) { o.wind_enabled = readBool(n); };
   s["wind"] = [](const YAML::Node& n, SceneOptions& o) { o.wind.velocity_m_per_s = readVector(n); };
   s["wind_model"] = [](const YAML::Node& n, SceneOptions& o) {
@@ -592,6 +595,7 @@ std::string sceneYaml(const SceneOptions& o) {
     }
   }
   key("bend_model") << bendModelName(o.bend_model);
+  key("compression_model") << compressionModelName(o.compression_model);
   key("outline");
   if (o.outline.shape == OutlineOptions::Shape::kNone) {
     out << "none";

@@ -30,6 +30,7 @@ Runs one textile test of doc/VALIDATION.md and prints one JSON line on stdout (m
                          support: drape coefficient and folds)
   --material NAME        a preset (cotton, denim, wool, polyester, silk; default cotton)
   --bend-model MODEL     springs or curvature (default curvature)
+  --compression-model M  drape: linear or buckling (default linear)
   --cols N               cantilever: particles along the strip's free length (default 21)
   --side N               drape, hanging, cusick: particles per side (default 20)
   --seconds S            drape, cusick: simulated time (default 8)
@@ -50,6 +51,7 @@ struct ValidateOptions {
   std::string test;
   std::string material = "cotton";
   core::BendModel bend_model = core::BendModel::kCurvature;
+  core::CompressionModel compression_model = core::CompressionModel::kLinear;
   int cols = 21;
   int side = 20;
   double seconds = kDefaultDrapeSeconds;
@@ -136,6 +138,8 @@ int drape(const ValidateOptions& options) {
   std::vector<std::string> errors;
   const std::vector<SceneOverride> overrides{{"--material", "material", options.material},
                                              {"--bend-model", "bend_model", core::bendModelName(options.bend_model)},
+                                             {"--compression-model", "compression_model",
+                                              core::compressionModelName(options.compression_model)},
                                              {"--side", "rows", std::to_string(options.side)},
                                              {"--side", "cols", std::to_string(options.side)}};
   if (!loadSceneWithOverrides("drape", options.scenes_dir, overrides, &scene, &errors) || !validateInto(scene, &errors)) {
@@ -160,7 +164,8 @@ int drape(const ValidateOptions& options) {
       0.5 * (end(2, grid.index(0, (grid.cols - 1) / 2)) + end(2, grid.index(0, grid.cols / 2)));
   std::ostringstream out;
   out << "{\"test\": \"drape\", \"material\": \"" << options.material << "\", \"bend_model\": \""
-      << core::bendModelName(options.bend_model) << "\", \"side\": " << options.side
+      << core::bendModelName(options.bend_model) << "\", \"compression_model\": \""
+      << core::compressionModelName(options.compression_model) << "\", \"side\": " << options.side
       << ", \"seconds\": " << number(options.seconds) << ", \"sag_m\": " << number(hook_z - top_middle_z)
       << ", \"fold_depth_m\": " << number(end.row(1).maxCoeff() - end.row(1).minCoeff())
       << ", \"lowest_m\": " << number(hook_z - end.row(2).minCoeff())
@@ -252,6 +257,11 @@ void parse(int argc, char** argv, ValidateOptions* options, std::vector<std::str
     } else if (flag == "--bend-model") {
       const std::string name = value();
       if (!core::parseBendModelName(name, &options->bend_model)) errors->push_back("--bend-model " + name + ": springs or curvature");
+    } else if (flag == "--compression-model") {
+      const std::string name = value();
+      if (!core::parseCompressionModelName(name, &options->compression_model)) {
+        errors->push_back("--compression-model " + name + ": linear or buckling");
+      }
     } else if (flag == "--cols" || flag == "--side") {
       const std::string text = value();
       const std::optional<int> n = parseInt(text);

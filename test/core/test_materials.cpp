@@ -375,5 +375,143 @@ TEST(MaterialScenes, AirDampingAndThePapersWindActPerArea) {
   EXPECT_DOUBLE_EQ(paperWindCoefficientPerTriangle_N_s_per_m(paper_grid), paper_grid.wind.paper_coefficient_N_s_per_m);
 }
 
+// compression_model: buckling (Choi and Ko 2002): a compressed structural or shear spring pushes back at
+// most the Euler load of the strip of fabric it stands for.
+
+TEST(BucklingSprings, ACompressedSpringPushesBackAtMostItsCapAndItsEnergyIsTheForcesIntegral) {
+  // One spring 0.1 m long, 1000 N/m, capped at 2 N: the cap is reached at 2 mm of compression.
+  SpringSet spring;
+  spring.first = {0};
+  spring.second = {1};
+  spring.rest_length_m = {0.1};
+  SpringOptions options{true, 1000.0, 0.0};
+  options.buckling_N_m3 = 2.0 * 0.1 * 0.1 * 0.1;
+  EXPECT_DOUBLE_EQ(springCompressionCap_N(options, 0.1), 2.0);
+  const auto pushOnFirst = [&](double length_m) {
+    Eigen::Matrix3Xd x(3, 2), v = Eigen::Matrix3Xd::Zero(3, 2), f = Eigen::Matrix3Xd::Zero(3, 2);
+    x << 0.0, length_m, 0.0, 0.0, 0.0, 0.0;
+    accumulateSpringForces(spring, options, x, v, f);
+    return f(0, 0);  // along +x: pulled towards the second end
+  };
+  const auto energy = [&](double length_m) {
+    Eigen::Matrix3Xd x(3, 2);
+    x << 0.0, length_m, 0.0, 0.0, 0.0, 0.0;
+    return springPotentialEnergy(spring, options, x);
+  };
+  EXPECT_NEAR(pushOnFirst(0.105), 5.0, 1e-12);   // in tension: linear, whatever the cap
+  EXPECT_NEAR(pushOnFirst(0.099), -1.0, 1e-12);  // compressed below the cap: linear
+  EXPECT_NEAR(pushOnFirst(0.095), -2.0, 1e-12);  // past it: the cap
+  EXPECT_NEAR(pushOnFirst(0.050), -2.0, 1e-12);
+  // The energy is the force's integral: its slope is the force on both sides of the cap, and it is
+  // continuous where the cap is reached (2 mJ there).
+  for (const double length_m : {0.105, 0.099, 0.095, 0.050}) {
+    const double step_m = 1e-7;
+    const double slope_N = (energy(length_m + step_m) - energy(length_m - step_m)) / (2.0 * step_m);
+    EXPECT_NEAR(slope_N, pushOnFirst(length_m), 1e-6) << length_m;
+  }
+  EXPECT_NEAR(energy(0.098), 0.002, 1e-15);
+  EXPECT_NEAR(energy(0.097) - energy(0.098), 2.0 * 0.001, 1e-12);
+  // Without a buckling load a spring is linear however far it is compressed.
+  options.buckling_N_m3 = 0.0;
+  EXPECT_NEAR(pushOnFirst(0.050), -50.0, 1e-12);
+}
+
+TEST(BucklingSprings, EachSpringIsCappedAtTheEulerLoadOfItsStripOfFabric) {
+  // A 0.6 x 0.4 m sheet on 7 x 9 particles: du = 0.05, dv = 0.1 m. A row spring (L = du) stands for a
+  // strip dv wide, a column spring for one du wide, each diagonal for half a cell's area over its length.
+  SceneOptions scene = sheet(preset("denim"), 7);
+  scene.cols = 13;
+  scene.width_m = 0.6;
+  scene.height_m = 0.6;
+  scene.compression_model = CompressionModel::kBuckling;
+  const SceneOptions resolved = resolveMaterial(scene);
+  const double B = preset("denim").bending_rigidity_N_m;
+  const double pi2 = 9.8696044010893586;
+  const double du = 0.05, dv = 0.1, diagonal = std::hypot(du, dv);
+  const SpringOptions& structural = resolved.springs[static_cast<int>(SpringKind::kStructural)];
+  const SpringOptions& shear = resolved.springs[static_cast<int>(SpringKind::kShear)];
+  EXPECT_NEAR(springCompressionCap_N(structural, du), pi2 * B * dv / (du * du), 1e-12);
+  EXPECT_NEAR(springCompressionCap_N(structural, dv), pi2 * B * du / (dv * dv), 1e-12);
+  EXPECT_NEAR(springCompressionCap_N(shear, diagonal), pi2 * B * (du * dv / (2.0 * diagonal)) / (diagonal * diagonal),
+              1e-12);
+  // The bend springs (off with the curvature term, and the bending itself with springs) are never capped,
+  // and the linear model caps nothing.
+  EXPECT_EQ(resolved.springs[static_cast<int>(SpringKind::kBend)].buckling_N_m3, 0.0);
+  scene.compression_model = CompressionModel::kLinear;
+  EXPECT_EQ(resolveMaterial(scene).springs[static_cast<int>(SpringKind::kStructural)].buckling_N_m3, 0.0);
+}
+
+TEST(BucklingSprings, TheGridKernelsCapAsTheSpringsDoAndACappedSpringHasNoStiffness) {
+  SceneOptions scene = sheet(preset("cotton"), 9, BendModel::kCurvature);
+  scene.compression_model = CompressionModel::kBuckling;
+  Simulation simulation(scene);
+  const Eigen::Matrix3Xd& rest = simulation.grid().rest_positions_m;
+  const Eigen::Matrix3Xd zero = Eigen::Matrix3Xd::Zero(3, rest.cols());
+  // Squeezed to 90 %: every structural and shear spring past its cap (here the structural springs reach
+  // it at a strain of 2.5e-6, the shear springs at 6e-5). A uniform squeeze is an affine map, on which the curvature term exerts
+  // nothing, so the forces are the springs' alone.
+  const Eigen::Matrix3Xd squeezed = 0.9 * rest;
+  const Eigen::Matrix3Xd grid_forces = elasticForces(simulation, squeezed);
+  Eigen::Matrix3Xd reference = Eigen::Matrix3Xd::Zero(3, rest.cols());
+  for (int k : {static_cast<int>(SpringKind::kStructural), static_cast<int>(SpringKind::kShear)}) {
+    accumulateSpringForces(simulation.grid().springs[k], simulation.options().springs[k], squeezed, zero, reference);
+  }
+  ASSERT_GT(reference.cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_LT((grid_forces - reference).cwiseAbs().maxCoeff(), 1e-12 * reference.cwiseAbs().maxCoeff());
+  // At the cap the pushes are constant: squeezing further changes no force...
+  EXPECT_LT((elasticForces(simulation, 0.85 * rest) - grid_forces).cwiseAbs().maxCoeff(),
+            1e-12 * grid_forces.cwiseAbs().maxCoeff());
+  // ...and the linearisation has no stiffness along or across a capped spring: its differential for any
+  // affine change of the positions (which the curvature term does not feel either) is zero, to the
+  // curvature term's rounding. The same sheet squeezed by a strain of 1e-7, under the caps, is as stiff
+  // as its linear springs.
+  ClothForceModel& model = simulation.forceModel();
+  const Eigen::Matrix3d map = Eigen::Matrix3d::Random();
+  const Eigen::Matrix3Xd affine = map * rest;
+  Eigen::Matrix3Xd differential;
+  model.linearize(squeezed, zero, 0.0);
+  model.forceDifferential(affine, zero, differential);
+  const double capped_N = differential.cwiseAbs().maxCoeff();
+  model.linearize((1.0 - 1e-7) * rest, zero, 0.0);
+  model.forceDifferential(affine, zero, differential);
+  const double linear_N = differential.cwiseAbs().maxCoeff();
+  EXPECT_GT(linear_N, 1.0);
+  EXPECT_LT(capped_N, 1e-12 * linear_N);
+}
+
+TEST(BucklingSprings, TheDrapeSagsAlikeAt20And40ParticlesPerSide) {
+  // The `drape` scene (cotton, 1 m square on two hooks 0.6 m apart) after 8 s: its top edge's middle
+  // below the hooks. With linear springs the 20 x 20 grid, whose 5 cm cells are wider than the folds
+  // cotton makes, cannot fold there without compressing its stiff membrane and hangs 5 cm (25 %)
+  // shallower than the 40 x 40 one (doc/VALIDATION.md); with the buckling cap the two sag alike.
+  const auto sag_m = [](int side) {
+    SceneOptions options = test::loadBuiltinScene("drape");
+    options.rows = options.cols = side;
+    options.compression_model = CompressionModel::kBuckling;
+    Simulation simulation(options);
+    for (int frame = 0; frame < 400; ++frame) simulation.advanceFrame();
+    const ClothGrid& grid = simulation.grid();
+    const Eigen::Matrix3Xd& x = simulation.state().positions_m;
+    const double middle_z = 0.5 * (x(2, grid.index(0, (side - 1) / 2)) + x(2, grid.index(0, side / 2)));
+    return options.pin_positions_m.front().z() - middle_z;
+  };
+  const double coarse_m = sag_m(20);
+  const double fine_m = sag_m(40);
+  EXPECT_GT(fine_m, 0.25);
+  EXPECT_NEAR(coarse_m, fine_m, 0.05 * fine_m);
+}
+
+TEST(BucklingSprings, TheKeyIsNamedAndNeedsAMaterial) {
+  SceneOptions options;
+  ASSERT_TRUE(parse("{material: silk, compression_model: buckling}", &options).empty());
+  EXPECT_EQ(options.compression_model, CompressionModel::kBuckling);
+  EXPECT_NE(parse("compression_model: soft", &options).front().find("linear or buckling"), std::string::npos);
+  SceneOptions paper;
+  paper.compression_model = CompressionModel::kBuckling;
+  const std::vector<std::string> problems = validateSceneOptions(paper);
+  ASSERT_FALSE(problems.empty());
+  EXPECT_NE(problems.front().find("compression_model = buckling: needs a material"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace cloth_sim::core

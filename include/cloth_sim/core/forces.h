@@ -17,10 +17,18 @@ struct SpringOptions {
   bool enabled = true;
   double stiffness_N_per_m = 0.0;   ///< Ks
   double damping_N_s_per_m = 0.0;   ///< Kd, on the relative velocity along the spring
+  /// 0: a compressed spring pushes back as Ks (L - l). Else it pushes back at most buckling_N_m3 / L^3 N
+  /// (L its rest length): the Euler load of the strip of fabric it stands for, which buckles below the
+  /// grid's cells (Choi and Ko 2002's post-buckling response; `compression_model: buckling`).
+  double buckling_N_m3 = 0.0;
 };
 
-/// Springs: F = Ks (|d| - L) d/|d| + Kd ((v_j - v_i) . d/|d|) d/|d| on particle i with d = x_j - x_i, and
-/// the opposite on j. A spring shorter than a micrometre has no direction and is skipped.
+/// The most a compressed spring of rest length L pushes back, N: infinite for a linear spring.
+double springCompressionCap_N(const SpringOptions& options, double rest_length_m);
+
+/// Springs: F = max(Ks (|d| - L), -cap) d/|d| + Kd ((v_j - v_i) . d/|d|) d/|d| on particle i with
+/// d = x_j - x_i and cap = springCompressionCap_N, and the opposite on j. A spring shorter than a
+/// micrometre has no direction and is skipped.
 void accumulateSpringForces(const SpringSet& springs, const SpringOptions& options,
                             const Eigen::Matrix3Xd& positions_m, const Eigen::Matrix3Xd& velocities_m_per_s,
                             Eigen::Matrix3Xd& forces_N);

@@ -44,6 +44,21 @@ enum class BendModel {
 };
 
 const char* bendModelName(BendModel model);
+
+/// How a compressed structural or shear spring pushes back (scene key `compression_model`).
+enum class CompressionModel {
+  /// As it pulls in tension: Ks (L - l).
+  kLinear,
+  /// At most the Euler load of the strip of fabric it stands for, pi^2 B w / L^2 (w the strip's width,
+  /// L the spring's rest length): a real fabric buckles into folds under far less compression than its
+  /// stretch modulus would carry, and a grid whose cells are wider than those folds cannot fold there
+  /// (Choi and Ko 2002's post-buckling response). Needs a material (its bending rigidity B).
+  kBuckling,
+};
+
+const char* compressionModelName(CompressionModel model);
+/// "linear" or "buckling"; false for anything else.
+bool parseCompressionModelName(const std::string& name, CompressionModel* model);
 /// "springs" or "curvature"; false for anything else.
 bool parseBendModelName(const std::string& name, BendModel* model);
 
@@ -69,6 +84,11 @@ struct MaterialConstants {
   double spacing_m = 0.0;                ///< sqrt(du dv): the cells are taken as squares of this side
   double bending_length_m = 0.0;         ///< (B / (rho_A g))^(1/3): the cantilever's bending length
   double reference_curvature_per_m = 0.0;  ///< 1 / bending_length: where the bend springs match B
+  /// compression_model: buckling's SpringOptions::buckling_N_m3, N m^3: pi^2 B du dv for the structural
+  /// springs (a row spring, L = du, stands for a strip dv wide: pi^2 B dv / du^2) and half that for the
+  /// shear springs (two diagonals per cell, each a strip du dv / (2 L) wide).
+  double structural_buckling_N_m3 = 0.0;
+  double shear_buckling_N_m3 = 0.0;
 };
 
 /// The constants `material` gives on a rows x cols grid of width x height m, under gravity of

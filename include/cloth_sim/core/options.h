@@ -121,6 +121,8 @@ struct SceneOptions {
   MaterialOptions material;
   /// Bend springs (the paper) or the curvature energy (needs a material).
   BendModel bend_model = BendModel::kSprings;
+  /// Linear compressed springs (the paper's), or capped at the fabric's buckling load (needs a material).
+  CompressionModel compression_model = CompressionModel::kLinear;
   /// The cloth's outline; none: the whole rectangle.
   OutlineOptions outline;
   bool wind_enabled = false;

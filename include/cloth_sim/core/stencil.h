@@ -8,6 +8,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 
 namespace cloth_sim::core {
 
@@ -32,6 +33,8 @@ struct StencilFamily {
   double rest_length_m = 0.0;
   double stiffness_N_per_m = 0.0;
   double damping_N_s_per_m = 0.0;
+  /// The most a compressed spring pushes back, N (SpringOptions::buckling_N_m3 / L^3; infinite: linear).
+  double compression_cap_N = std::numeric_limits<double>::infinity();
   /// Per particle index, 1 where the spring starting there exists, 0 where an outline removed it (an end
   /// outside); null: every spring exists.
   const std::uint8_t* present = nullptr;
@@ -59,8 +62,8 @@ constexpr double kStencilDegenerateLength_m = 1e-6;
 /// order whatever the bands. Each row of springs is computed into `row_scratch` (3 x cols doubles; 6 x
 /// cols for the blocks), which stays in the L1 cache, then added to both ends.
 
-/// Spring forces, N: on particle i of spring (i, j), (Ks (l - L) + Kd (v_j - v_i) . u) u with d = x_j - x_i,
-/// l = |d|, u = d / l; the opposite on j.
+/// Spring forces, N: on particle i of spring (i, j), (max(Ks (l - L), -cap) + Kd (v_j - v_i) . u) u with
+/// d = x_j - x_i, l = |d|, u = d / l, cap the family's compression_cap_N; the opposite on j.
 void stencilAccumulateSpringForces(int rows, int cols, const StencilFamily* families, int family_count,
                                    ConstField positions_m, ConstField velocities_m_per_s, Field forces_N,
                                    double* row_scratch, int row_begin, int row_end);
@@ -68,14 +71,16 @@ void stencilAccumulateSpringForces(int rows, int cols, const StencilFamily* fami
 /// Linearisation of one family at the given positions, per spring (indexed by its first particle, rows
 /// [row_begin, row_end) of first particles): 1 / l, and Ks * max(0, 1 - L / l), the part of the stiffness
 /// across the spring. That part is dropped for a compressed spring (l < L), where it would make the
-/// stiffness matrix indefinite (Baraff and Witkin's definiteness fix).
+/// stiffness matrix indefinite (Baraff and Witkin's definiteness fix). A spring compressed past its cap
+/// (its force constant, so no stiffness along it either) gets kCappedSpring instead.
+constexpr double kCappedSpring = -1.0;
 void stencilLinearize(int rows, int cols, const StencilFamily& family, ConstField positions_m,
                       double* inverse_length_per_m, double* transverse_stiffness_N_per_m, int row_begin,
                       int row_end);
 
 /// Differential spring forces, N, for the same change w applied to positions (scaled by scale_x) and
 /// velocities (scaled by scale_v): on particle i, scale_x (a Dw + (Ks - a) u (u . Dw)) + scale_v Kd u
-/// (u . Dw) with a the transverse stiffness, Dw = w_j - w_i, u from the linearised positions; the opposite
+/// (u . Dw) with a the transverse stiffness (a capped spring: scale_v Kd u (u . Dw) alone), Dw = w_j - w_i, u from the linearised positions; the opposite
 /// on j. Added to df_N. Per-family linearisation arrays are indexed as `families`. The backward Euler
 /// system product takes (h^2, h); dF/dx dx alone (1, 0); dF/dv dv alone (0, 1).
 void stencilAccumulateDifferential(int rows, int cols, const StencilFamily* families, int family_count,
