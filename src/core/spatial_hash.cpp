@@ -13,8 +13,8 @@ void SweptPairFinder::setBoxes(const Eigen::Matrix3Xd& start_m, const Eigen::Mat
 
 std::uint64_t SweptPairFinder::hashKey(const CellKey& key) {
   // Teschner et al. 2003's three large primes, then mixed so that the table's low bits depend on all of them.
-  std::uint64_t mixed = static_cast<std::uint64_t>(key[0]) * 73856093u ^ static_cast<std::uint64_t>(key[1]) * 19349663u ^
-                        static_cast<std::uint64_t>(key[2]) * 83492791u;
+  std::uint64_t mixed = static_cast<std::uint64_t>(key[0]) * 73856093u ^
+                        static_cast<std::uint64_t>(key[1]) * 19349663u ^ static_cast<std::uint64_t>(key[2]) * 83492791u;
   // The table's index is the low bits: fold the high half into them, spread every bit over the high
   // ones by a multiplication (2^64 / the golden ratio, Fibonacci hashing), and fold those back down.
   mixed ^= mixed >> 32;

@@ -35,10 +35,11 @@ inline double inverseLength(double length_m) { return length_m > kStencilDegener
 #define CLOTH_SIM_VECTOR_CLONES
 #endif
 
-CLOTH_SIM_VECTOR_CLONES void springForceRow(int count, int offset, double ks, double kd, double rest, double cap, const double* __restrict px,
-                    const double* __restrict py, const double* __restrict pz, const double* __restrict vx,
-                    const double* __restrict vy, const double* __restrict vz, double* __restrict fx,
-                    double* __restrict fy, double* __restrict fz) {
+CLOTH_SIM_VECTOR_CLONES void springForceRow(int count, int offset, double ks, double kd, double rest, double cap,
+                                            const double* __restrict px, const double* __restrict py,
+                                            const double* __restrict pz, const double* __restrict vx,
+                                            const double* __restrict vy, const double* __restrict vz,
+                                            double* __restrict fx, double* __restrict fy, double* __restrict fz) {
   for (int i = 0; i < count; ++i) {
     const int j = i + offset;
     const double dx = px[j] - px[i];
@@ -57,9 +58,10 @@ CLOTH_SIM_VECTOR_CLONES void springForceRow(int count, int offset, double ks, do
   }
 }
 
-CLOTH_SIM_VECTOR_CLONES void linearizeRow(int count, int offset, double ks, double rest, double cap, const double* __restrict px,
-                  const double* __restrict py, const double* __restrict pz, double* __restrict inverse_length,
-                  double* __restrict transverse) {
+CLOTH_SIM_VECTOR_CLONES void linearizeRow(int count, int offset, double ks, double rest, double cap,
+                                          const double* __restrict px, const double* __restrict py,
+                                          const double* __restrict pz, double* __restrict inverse_length,
+                                          double* __restrict transverse) {
   for (int i = 0; i < count; ++i) {
     const int j = i + offset;
     const double dx = px[j] - px[i];
@@ -202,8 +204,9 @@ void stencilAccumulateSpringForces(int rows, int cols, const StencilFamily* fami
   accumulateBand(rows, cols, families, family_count, 3, row_scratch, out, -1.0, row_begin, row_end,
                  [&](int, const StencilFamily& family, int count, int offset, std::ptrdiff_t first, double** spring) {
                    springForceRow(count, offset, family.stiffness_N_per_m, family.damping_N_s_per_m,
-                                  family.rest_length_m, family.compression_cap_N, x.x + first, x.y + first, x.z + first, v.x + first,
-                                  v.y + first, v.z + first, spring[0], spring[1], spring[2]);
+                                  family.rest_length_m, family.compression_cap_N, x.x + first, x.y + first,
+                                  x.z + first, v.x + first, v.y + first, v.z + first, spring[0], spring[1],
+                                  spring[2]);
                    clearMissingSprings(family, count, first, 3, spring);
                  });
 }
@@ -217,8 +220,8 @@ void stencilLinearize(int rows, int cols, const StencilFamily& family, ConstFiel
     if (range.last <= range.first) continue;
     const std::ptrdiff_t first = static_cast<std::ptrdiff_t>(r) * cols + range.first;
     linearizeRow(range.last - range.first, offset, family.stiffness_N_per_m, family.rest_length_m,
-                 family.compression_cap_N, positions_m.x + first, positions_m.y + first, positions_m.z + first, inverse_length_per_m + first,
-                 transverse_stiffness_N_per_m + first);
+                 family.compression_cap_N, positions_m.x + first, positions_m.y + first, positions_m.z + first,
+                 inverse_length_per_m + first, transverse_stiffness_N_per_m + first);
     // A missing spring linearises to nothing: no direction and no transverse stiffness make its
     // differential and its blocks zero.
     double* linearised[2] = {inverse_length_per_m + first, transverse_stiffness_N_per_m + first};

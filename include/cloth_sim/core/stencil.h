@@ -80,9 +80,10 @@ void stencilLinearize(int rows, int cols, const StencilFamily& family, ConstFiel
 
 /// Differential spring forces, N, for the same change w applied to positions (scaled by scale_x) and
 /// velocities (scaled by scale_v): on particle i, scale_x (a Dw + (Ks - a) u (u . Dw)) + scale_v Kd u
-/// (u . Dw) with a the transverse stiffness (a capped spring: scale_v Kd u (u . Dw) alone), Dw = w_j - w_i, u from the linearised positions; the opposite
-/// on j. Added to df_N. Per-family linearisation arrays are indexed as `families`. The backward Euler
-/// system product takes (h^2, h); dF/dx dx alone (1, 0); dF/dv dv alone (0, 1).
+/// (u . Dw) with a the transverse stiffness (a capped spring: scale_v Kd u (u . Dw) alone), Dw = w_j - w_i,
+/// u from the linearised positions; the opposite on j. Added to df_N. Per-family linearisation arrays are
+/// indexed as `families`. The backward Euler system product takes (h^2, h); dF/dx dx alone (1, 0); dF/dv
+/// dv alone (0, 1).
 void stencilAccumulateDifferential(int rows, int cols, const StencilFamily* families, int family_count,
                                    ConstField linearized_positions_m, const double* const* inverse_length_per_m,
                                    const double* const* transverse_stiffness_N_per_m, ConstField w, double scale_x,
