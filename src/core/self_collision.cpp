@@ -149,14 +149,13 @@ SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfColli
   // of a folded 64 x 64 towel at rest.
   contacts_.clear();
   contact_of_.assign(pairs_.size(), -1);
-  moved_.assign(count, 0);
   // What a sweep does with a pair depends only on its two particles' positions (and on what does not
   // change over the sweeps): a pair it left alone is left alone again until one of them moves. Most pairs
   // are far apart, and a later sweep passes over them on these two counters instead of their positions.
   // The clock ticks at every change of positions (a push, a pass lifting particles onto surfaces); at
   // most 4 (pairs + 1) ticks a substep.
   int clock = 0;
-  moved_at_.assign(count, 0);           // per particle: the clock after its last change
+  moved_at_.assign(count, 0);           // per particle: the clock after its last change (0: not pushed)
   checked_at_.assign(pairs_.size(), 0);  // per pair: 1 + the clock when a sweep last checked it
   for (int sweep = 0; sweep < kResponseSweeps; ++sweep) {
     for (std::size_t p = 0; p < pairs_.size(); ++p) {
@@ -199,14 +198,13 @@ SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfColli
       Contact& contact = contacts_[static_cast<std::size_t>(contact_of_[p])];
       contact.pushed_m += thickness_m - gap_m;
       contact.normal = normal;
-      moved_[i] = moved_[j] = 1;
       moved_at_[i] = moved_at_[j] = ++clock;
     }
     // What was pushed into a table or the floor goes back onto it; the next sweep pushes the other way.
     if (colliders.empty()) continue;
     ++clock;
     for (int i = 0; i < count; ++i) {
-      if (moved_[i] && liftOntoSurfaces(colliders, time_s, positions_m.col(i))) moved_at_[i] = clock;
+      if (moved_at_[i] > 0 && liftOntoSurfaces(colliders, time_s, positions_m.col(i))) moved_at_[i] = clock;
     }
   }
   // Friction between the layers: the pair's relative sliding over the substep, removed up to

@@ -138,8 +138,9 @@ class SelfCollision {
   std::vector<int> contact_of_;  ///< per pair: its index in contacts_, -1 if not pushed
   std::vector<int> row_of_;  ///< per particle: its row and column on the grid
   std::vector<int> col_of_;
-  std::vector<char> moved_;
-  std::vector<int> moved_at_;    ///< response sweeps: per particle, the clock after its last change
+  /// Response sweeps: per particle, the clock after its last change (0: no sweep has pushed it, so it is
+  /// not lifted back onto a surface either).
+  std::vector<int> moved_at_;
   std::vector<int> checked_at_;  ///< per pair: 1 + the clock when a sweep last checked it
   std::vector<char> frozen_;
 };
