@@ -75,6 +75,10 @@ struct FrameReport {
   SelfCollisionStats self_collision;
   StepReport steps;       ///< the integrator's work summed over the accepted computation's substeps
   double max_strain = 0.0;  ///< largest structural stretch (|d| - L) / L after the frame
+  /// The cloth slept through the frame (SceneOptions::sleep_speed_m_per_s): nothing was computed, the
+  /// state is the last frame's with time and frame number advanced; substeps_used and steps are 0, and
+  /// contacts and self_collision are empty.
+  bool asleep = false;
 };
 
 class Simulation {
@@ -184,8 +188,8 @@ class Simulation {
   /// against.
   double totalEnergy_J(const EnergyReport& energies) const;
   double maxStructuralStrain() const;
-  /// Substeps the last frame was computed with (with `auto`, what the guard chose; before the first
-  /// frame, what the first would take).
+  /// Substeps the last computed frame was computed with (with `auto`, what the guard chose; before the
+  /// first frame, what the first would take; a sleeping frame keeps the count the cloth will wake with).
   int lastFrameSubsteps() const { return last_substeps_; }
   /// What `auto` remembers between frames (part of a snapshot: a restored run chooses the same substeps).
   const GuardMemory& guardMemory() const { return memory_; }
@@ -241,6 +245,17 @@ class Simulation {
   void rememberFrame(const FrameReport& report, int first_substeps, int auto_scale);
   /// After repeated rollbacks: implicit Euler with auto substeps, or the initial state. Always true.
   bool recover(const FrameEnvelope& envelope, FrameReport* report);
+  /// Whether anything moves the cloth over the coming frame by itself: a hook, sphere, gripper or frame
+  /// collider that is not holding still, or a gusting wind.
+  bool isDriven() const;
+  /// A fingerprint of the inputs and the wind switch (not the times on the bodies' tracks): a grab, a
+  /// release, a new wind or a body moved changes it.
+  std::uint64_t driveFingerprint() const;
+  /// Whether the cloth sleeps through the coming frame: sleep_speed is on, the last sleepAfterFrames()
+  /// frames were calm, and nothing drives it or changed since.
+  bool sleepsThrough(bool driven, std::uint64_t drive) const;
+  /// Advances time and frame number over a frame the cloth sleeps through; *report says so.
+  void sleepThroughFrame(FrameReport* report);
   /// Runs one frame in the given number of substeps from the current state; adds the integrator's work
   /// to *steps.
   ContactStats integrateFrame(int substeps, StepReport* steps, SelfCollisionStats* self_collision);
