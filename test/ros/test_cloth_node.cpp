@@ -939,6 +939,57 @@ TEST_F(NodeTest, DiagnosticsReportTheSimulation) {
   EXPECT_TRUE(std::isfinite(strain) && strain >= 0.0 && strain < 0.5) << strain;
 }
 
+// ---- 11b. A cloth at rest sleeps, and a grasp wakes it (services.test) ----------------------------
+
+TEST_F(NodeTest, AClothAtRestSleepsAndAGraspWakesIt) {
+  Monitor<diagnostic_msgs::DiagnosticArray> diagnostics(nh_, "/diagnostics");
+  ASSERT_NO_FATAL_FAILURE(freshScene(false));
+  const std::string name = nodeName().substr(1) + ": simulation";
+  const auto asleepIs = [&](const char* value) {
+    return [&name, value](const diagnostic_msgs::DiagnosticArray& array) {
+      for (const auto& status : array.status) {
+        if (status.name != name) continue;
+        for (const auto& kv : status.values) {
+          if (kv.key == "asleep") return kv.value == value;
+        }
+      }
+      return false;
+    };
+  };
+  // The hanging cloth swings out its start within a few seconds and then sleeps (sleep_speed's default).
+  const auto asleep = diagnostics.waitFor(asleepIs("True"), 40.0, diagnostics.count());
+  ASSERT_TRUE(asleep) << "the hanging cloth never slept";
+  // Asleep: ~state keeps coming, frame after frame, with the same positions bit for bit and the substeps
+  // the cloth was last computed with.
+  const auto first = states_->waitForNext(5.0, states_->count());
+  ASSERT_TRUE(first);
+  const auto later = states_->waitFor([&](const ClothState& s) { return s.frame >= first->frame + 10; }, 5.0,
+                                      states_->count());
+  ASSERT_TRUE(later) << "~state stopped while the cloth slept";
+  EXPECT_TRUE(sameBits(*first, *later)) << "a sleeping cloth moved";
+  EXPECT_GE(later->substeps, 1u);
+  // A grasp wakes it: the corner follows the hand, and the diagnostics say it is awake.
+  const int particle = static_cast<int>((kHangingRows - 1) * kHangingCols);  // bottom-left corner, free
+  ros::Publisher grasp_pub = nh_.advertise<cloth_sim::Grasp>(nodeTopic("grasp"), 10);
+  ASSERT_TRUE(waitForSubscribers(grasp_pub, 1, 10.0));
+  cloth_sim::Grasp grab;
+  grab.header.frame_id = "world";
+  grab.id = 3;
+  grab.action = cloth_sim::Grasp::GRAB;
+  grab.particle = particle;
+  grab.target = later->positions[particle];
+  grab.target.y += 0.2;
+  grab.stiffness = 500.0;
+  const std::uint64_t since = states_->count();
+  const std::uint64_t diagnostics_since = diagnostics.count();
+  grasp_pub.publish(grab);
+  const auto moved = states_->waitFor(
+      [&](const ClothState& s) { return distance(s.positions[particle], later->positions[particle]) > 0.05; }, 10.0,
+      since);
+  EXPECT_TRUE(moved) << "the grasp did not wake the cloth";
+  EXPECT_TRUE(diagnostics.waitFor(asleepIs("False"), 5.0, diagnostics_since)) << "awake, the diagnostics said asleep";
+}
+
 // ---- 7. Ball scene: the sphere's tf frame moves (ball.test) ---------------------------------------
 
 TEST(Ball, SphereFrameMoves) {
