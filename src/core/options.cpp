@@ -367,10 +367,6 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   return problems.take();
 }
 
-int SceneOptions::sleepAfterFrames() const {
-  return std::max(1, static_cast<int>(std::ceil(kSleepAfter_s * frame_rate_hz)));
-}
-
 SceneOptions resolveMaterial(const SceneOptions& options) {
   if (!options.has_material) return options;
   SceneOptions resolved = options;

@@ -84,14 +84,12 @@ class Fingerprint {
     static_assert(std::is_trivially_copyable_v<T>);
     add(&value, sizeof(T));
   }
+  /// A count, as 64 bits whatever the platform's size_t (the fingerprint is in the state file).
+  void addCount(std::size_t count) { add(static_cast<std::uint64_t>(count)); }
   void addMatrix(const Eigen::MatrixXd& values) {
-    add(values.rows());
-    add(values.cols());
+    addCount(static_cast<std::size_t>(values.rows()));
+    addCount(static_cast<std::size_t>(values.cols()));
     add(values.data(), sizeof(double) * static_cast<std::size_t>(values.size()));
-  }
-  void addPose(const Pose& pose) {
-    addMatrix(pose.position_m);
-    addMatrix(pose.orientation.coeffs());
   }
   std::uint64_t value() const { return hash_; }
 
@@ -402,12 +400,12 @@ FrameReport Simulation::advanceFrame() {
     // Calm: nothing drove the cloth, nothing changed since the frame before, and it stood still. A frame
     // with a crossing the self-collision could not prevent is never calm (the guard must keep seeing it),
     // nor one that changed `auto`'s scale: a cloth at rest first comes down to the substeps it needs (a
-    // trial every GuardMemory::kScaleTrialFrames, fewer frames than sleepAfterFrames()), so that it
+    // trial every GuardMemory::kScaleTrialFrames, fewer frames than sleepAfterFrames), so that it
     // wakes with them, not with those a jerk left.
     const bool calm = options_.sleep_speed_m_per_s > 0.0 && !driven && drive == memory_.drive_fingerprint &&
                       motion_m_per_s <= options_.sleep_speed_m_per_s && report.self_collision.forced == 0 &&
                       memory_.auto_scale == scale_before;
-    memory_.calm_frames = calm ? std::min(memory_.calm_frames + 1, options_.sleepAfterFrames()) : 0;
+    memory_.calm_frames = calm ? std::min(memory_.calm_frames + 1, sleepAfterFrames(options_)) : 0;
     memory_.drive_fingerprint = drive;
   } else if (++memory_.consecutive_rollbacks >= GuardMemory::kRollbacksBeforeRecovery) {
     accepted = recover(envelope, &report);
@@ -448,7 +446,7 @@ FrameReport Simulation::advanceFrame() {
 bool Simulation::isDriven() const {
   const Kinematics& kinematics = force_model_.kinematics();
   for (std::size_t body = 0; body < kinematics.bodies().size(); ++body) {
-    if (kinematics.peakSpeed_m_per_s(body, state_.time_s) > 0.0) return true;
+    if (kinematics.peakSpeed_m_per_s(body, state_.time_s) > kHeldStillSpeed_m_per_s) return true;
   }
   return options_.wind_enabled && options_.wind.gust_amplitude != 0.0 && !inputs_.wind_m_per_s.isZero(0.0);
 }
@@ -465,35 +463,43 @@ std::uint64_t Simulation::driveFingerprint() const {
     print.add(grasp.damping_N_s_per_m);
     print.addMatrix(grasp.extra_force_N);
   }
-  print.add(inputs_.pins.size());
+  print.addCount(inputs_.pins.size());
   print.add(inputs_.pins.data(), sizeof(int) * inputs_.pins.size());
   print.addMatrix(inputs_.pin_anchors_m);
   print.addMatrix(inputs_.pin_travel_m);
   for (const Gripper& gripper : inputs_.grippers) {
     print.add(gripper.id);
-    print.add(gripper.particles.size());
+    print.addCount(gripper.particles.size());
     print.add(gripper.particles.data(), sizeof(int) * gripper.particles.size());
     print.addMatrix(gripper.offsets_m);
     print.add(gripper.max_force_N);
-    print.addPose(gripper.track.end);
   }
-  for (const FrameColliderTrack& link : inputs_.frame_colliders) {
-    print.add(link.seen);
-    print.addPose(link.track.end);
-  }
+  // A link's first pose places it without sweeping it there: only the change of `seen` says it came.
+  for (const FrameColliderTrack& link : inputs_.frame_colliders) print.add(link.seen);
   return print.value();
 }
 
+int Simulation::sleepAfterFrames(const SceneOptions& options) {
+  const int frames = static_cast<int>(std::ceil(SceneOptions::kSleepAfter_s * options.frame_rate_hz));
+  return std::max(frames, static_cast<int>(GuardMemory::kScaleTrialFrames) + 1);
+}
+
+int Simulation::sleepCheckFrames(const SceneOptions& options) {
+  return std::max(1, static_cast<int>(std::ceil(SceneOptions::kSleepCheckPeriod_s * options.frame_rate_hz)));
+}
+
 bool Simulation::sleepsThrough(bool driven, std::uint64_t drive) const {
-  return options_.sleep_speed_m_per_s > 0.0 && memory_.calm_frames >= options_.sleepAfterFrames() && !driven &&
-         drive == memory_.drive_fingerprint;
+  // By frame number, so that a restored run checks on the same frames.
+  const bool check_frame = (state_.frame + 1) % static_cast<std::uint64_t>(sleepCheckFrames(options_)) == 0;
+  return options_.sleep_speed_m_per_s > 0.0 && memory_.calm_frames >= sleepAfterFrames(options_) && !driven &&
+         drive == memory_.drive_fingerprint && !check_frame;
 }
 
 void Simulation::sleepThroughFrame(FrameReport* report) {
-  // The cloth stood still for sleepAfterFrames() frames under the same inputs, with nothing moving it:
-  // computing this frame would give back the state it starts from (to within sleep_speed times the
-  // frame's duration per particle), so only time goes on. The substeps `auto` remembers, the gripper
-  // wrenches and the energies stay those of the last computed frame, whose state this still is.
+  // The cloth stood still for sleepAfterFrames frames under the same inputs, with nothing moving it:
+  // no particle moved more than sleep_speed times a frame's duration in any of them, so this frame is not
+  // computed and only time goes on. The substeps `auto` remembers, the gripper wrenches and the energies
+  // stay those of the last computed frame, whose state this still is.
   report->asleep = true;
   report->substeps_used = 0;
   report->max_strain = energy_cache_valid_ ? cached_strain_ : maxStructuralStrain();
@@ -1066,13 +1072,13 @@ bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error)
                           (guard.auto_scale & (guard.auto_scale - 1)) != 0 || guard.consecutive_rollbacks < 0 ||
                           guard.consecutive_rollbacks >= GuardMemory::kRollbacksBeforeRecovery ||
                           !(guard.frame_motion_m_per_s >= 0.0) || guard.calm_frames < 0 ||
-                          guard.calm_frames > options.sleepAfterFrames())) {
+                          guard.calm_frames > sleepAfterFrames(options))) {
     problem = "guard memory: auto scale " + std::to_string(guard.auto_scale) + " (a power of two up to " +
               std::to_string(GuardMemory::kMaxScale) + "), rollbacks in a row " +
               std::to_string(guard.consecutive_rollbacks) + " (below " +
               std::to_string(GuardMemory::kRollbacksBeforeRecovery) + "), last frame's motion " +
               std::to_string(guard.frame_motion_m_per_s) + " m/s (at least 0), calm frames " +
-              std::to_string(guard.calm_frames) + " (0 to " + std::to_string(options.sleepAfterFrames()) + ")";
+              std::to_string(guard.calm_frames) + " (0 to " + std::to_string(sleepAfterFrames(options)) + ")";
   }
   if (!problem.empty()) {
     *error = "snapshot " + problem;

@@ -490,6 +490,7 @@ void ClothNode::applyGrasp(const cloth_sim::Grasp::ConstPtr& message) {
 bool ClothNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
   cancelStep("~reset restarted the scene");
   simulation_->reset();
+  asleep_ = false;  // frame 0 is computed, not slept through
   grippers_->synchronize();  // a reset lets every gripper go
   reanchor();
   publish(ros::Time::now());

@@ -425,7 +425,7 @@ TEST(Restore, InvalidOptionsAreRefusedByName) {
   expectRefused([](SimulationSnapshot& s) { s.guard.frame_motion_m_per_s = std::nan(""); }, "guard memory");
   expectRefused([](SimulationSnapshot& s) { s.guard.frame_motion_m_per_s = -1.0; }, "guard memory");
   expectRefused([](SimulationSnapshot& s) { s.guard.calm_frames = -1; }, "guard memory");
-  expectRefused([](SimulationSnapshot& s) { s.guard.calm_frames = s.options.sleepAfterFrames() + 1; }, "guard memory");
+  expectRefused([](SimulationSnapshot& s) { s.guard.calm_frames = Simulation::sleepAfterFrames(s.options) + 1; }, "guard memory");
   expectRefused([](SimulationSnapshot& s) { s.options.springs[0].stiffness_N_per_m = kNaN; }, "stiffness");
 }
 
@@ -737,7 +737,7 @@ SimulationSnapshot sleepingSnapshot() {
 
 TEST(StateFile, AVersion4FileStillLoadsAwake) {
   SimulationSnapshot saved = sleepingSnapshot();
-  ASSERT_EQ(saved.guard.calm_frames, saved.options.sleepAfterFrames()) << "the sheet on the floor never slept";
+  ASSERT_EQ(saved.guard.calm_frames, Simulation::sleepAfterFrames(saved.options)) << "the sheet on the floor never slept";
   const std::string bytes = encodeStateFile(saved);
   ASSERT_EQ(bytes.substr(bytes.size() - kSleepSectionBytes, 4), "SLEP");
   SimulationSnapshot loaded;

@@ -178,6 +178,9 @@ struct SceneOptions {
   /// How long the cloth must stay below sleep_speed before it sleeps, s of simulated time: longer than a
   /// swing's turning point or a bounce's top (where a moving cloth stops for a frame or two).
   static constexpr double kSleepAfter_s = 0.5;
+  /// A sleeping cloth is still computed once per this period, s: a cloth that only seemed at rest (a hem
+  /// beginning to slide off a table's edge, creeping under sleep_speed at first) is seen to move and wakes.
+  static constexpr double kSleepCheckPeriod_s = 1.0;
   SolverOptions solver;         ///< implicit_euler's linear solve: tolerance and iteration cap per step
   /// Threads for the force kernels and the solver on grids of 4096 particles or more. 1 by default: on
   /// the 2-vCPU machines this project is measured on, a second thread made the vectorised kernels
@@ -193,8 +196,6 @@ struct SceneOptions {
 
   double frameDuration_s() const { return 1.0 / frame_rate_hz; }
   bool autoSubsteps() const { return substeps == kAutoSubsteps; }
-  /// Frames the cloth must stay calm before it sleeps (kSleepAfter_s at frame_rate_hz, at least 1).
-  int sleepAfterFrames() const;
   /// The step of a fixed substep count, s (with `auto` the guard decides it frame by frame).
   double substep_s() const { return frameDuration_s() / substeps; }
 };

@@ -109,7 +109,7 @@ struct GuardMemory {
   /// as a velocity the floor takes off every step, and a folded towel at rest never looked calm by it.
   double frame_motion_m_per_s = std::numeric_limits<double>::infinity();
   /// Frames in a row computed while nothing drove the cloth and no particle moved faster than the
-  /// options' sleep_speed, up to SceneOptions::sleepAfterFrames(): from there on the cloth sleeps.
+  /// options' sleep_speed, up to Simulation::sleepAfterFrames(): from there on the cloth sleeps.
   int calm_frames = 0;
   /// What drove the last frame (Simulation's fingerprint of the inputs): a frame that starts with another
   /// one is computed, and counts as calm only from the next frame on.
