@@ -393,10 +393,20 @@ FrameReport Simulation::advanceFrame() {
   report.recomputed = accepted && report.substeps_used != first_substeps;
   last_substeps_ = report.substeps_used;
   if (accepted) {
+    const int scale_before = memory_.auto_scale;
     rememberFrame(report, first_substeps, auto_scale);
     memory_.frame_motion_m_per_s = motion_m_per_s;
     memory_.consecutive_rollbacks = 0;
-    rememberCalm(driven, drive, motion_m_per_s, report);
+    // Calm: nothing drove the cloth, nothing changed since the frame before, and it stood still. A frame
+    // with a crossing the self-collision could not prevent is never calm (the guard must keep seeing it),
+    // nor one that changed `auto`'s scale: a cloth at rest first comes down to the substeps it needs (a
+    // trial every GuardMemory::kScaleTrialFrames, fewer frames than sleepAfterFrames), so that it
+    // wakes with them, not with those a jerk left.
+    const bool calm = options_.sleep_speed_m_per_s > 0.0 && !driven && drive == memory_.drive_fingerprint &&
+                      motion_m_per_s <= options_.sleep_speed_m_per_s && report.self_collision.forced == 0 &&
+                      memory_.auto_scale == scale_before;
+    memory_.calm_frames = calm ? std::min(memory_.calm_frames + 1, sleepAfterFrames(options_)) : 0;
+    memory_.drive_fingerprint = drive;
   } else if (++memory_.consecutive_rollbacks >= GuardMemory::kRollbacksBeforeRecovery) {
     accepted = recover(envelope, &report);
   }
@@ -467,25 +477,6 @@ std::uint64_t Simulation::driveFingerprint() const {
   // A link's first pose places it without sweeping it there: only the change of `seen` says it came.
   for (const FrameColliderTrack& link : inputs_.frame_colliders) print.add(link.seen);
   return print.value();
-}
-
-void Simulation::rememberCalm(bool driven, std::uint64_t drive, double motion_m_per_s, const FrameReport& report) {
-  // Calm: nothing drove the cloth, nothing changed since the frame before, and it stood still. A frame
-  // with a crossing the self-collision could not prevent is never calm (the guard must keep seeing it).
-  const bool calm = options_.sleep_speed_m_per_s > 0.0 && !driven && drive == memory_.drive_fingerprint &&
-                    motion_m_per_s <= options_.sleep_speed_m_per_s && report.self_collision.forced == 0;
-  memory_.drive_fingerprint = drive;
-  if (!calm) {
-    memory_.calm_frames = 0;
-  } else if (memory_.calm_frames == 0 || memory_.auto_scale < memory_.calm_scale) {
-    // A cloth at rest first comes down to the substeps it needs (a trial every
-    // GuardMemory::kScaleTrialFrames, fewer frames than sleepAfterFrames), so that it wakes with them, not
-    // with those a jerk left: each new low starts the count again.
-    memory_.calm_frames = 1;
-    memory_.calm_scale = memory_.auto_scale;
-  } else {
-    memory_.calm_frames = std::min(memory_.calm_frames + 1, sleepAfterFrames(options_));
-  }
 }
 
 int Simulation::sleepAfterFrames(const SceneOptions& options) {
@@ -1081,16 +1072,13 @@ bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error)
                           (guard.auto_scale & (guard.auto_scale - 1)) != 0 || guard.consecutive_rollbacks < 0 ||
                           guard.consecutive_rollbacks >= GuardMemory::kRollbacksBeforeRecovery ||
                           !(guard.frame_motion_m_per_s >= 0.0) || guard.calm_frames < 0 ||
-                          guard.calm_frames > sleepAfterFrames(options) || guard.calm_scale < 1 ||
-                          guard.calm_scale > GuardMemory::kMaxScale)) {
+                          guard.calm_frames > sleepAfterFrames(options))) {
     problem = "guard memory: auto scale " + std::to_string(guard.auto_scale) + " (a power of two up to " +
               std::to_string(GuardMemory::kMaxScale) + "), rollbacks in a row " +
               std::to_string(guard.consecutive_rollbacks) + " (below " +
               std::to_string(GuardMemory::kRollbacksBeforeRecovery) + "), last frame's motion " +
               std::to_string(guard.frame_motion_m_per_s) + " m/s (at least 0), calm frames " +
-              std::to_string(guard.calm_frames) + " (0 to " + std::to_string(sleepAfterFrames(options)) +
-              "), their lowest scale " + std::to_string(guard.calm_scale) + " (1 to " +
-              std::to_string(GuardMemory::kMaxScale) + ")";
+              std::to_string(guard.calm_frames) + " (0 to " + std::to_string(sleepAfterFrames(options)) + ")";
   }
   if (!problem.empty()) {
     *error = "snapshot " + problem;

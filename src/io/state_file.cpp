@@ -297,7 +297,6 @@ std::string encodeMotion(const GuardMemory& guard) {
 std::string encodeSleep(const GuardMemory& guard) {
   Writer out;
   out.put(static_cast<std::int32_t>(guard.calm_frames));
-  out.put(static_cast<std::int32_t>(guard.calm_scale));
   out.put(guard.drive_fingerprint);
   return out.bytes();
 }
@@ -366,7 +365,6 @@ double decodeMotion(const std::string& bytes) {
 void decodeSleep(const std::string& bytes, GuardMemory* guard) {
   Reader in(bytes.data(), bytes.size(), "sleep section");
   guard->calm_frames = in.get<std::int32_t>();
-  guard->calm_scale = in.get<std::int32_t>();
   guard->drive_fingerprint = in.get<std::uint64_t>();
   in.expectEnd();
 }

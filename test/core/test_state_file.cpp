@@ -184,8 +184,7 @@ bool sameTrack(const PoseTrack& a, const PoseTrack& b) {
   if (auto options = sameOptions(a.options, b.options); !options) return options;
   if (a.guard.auto_scale != b.guard.auto_scale || a.guard.consecutive_rollbacks != b.guard.consecutive_rollbacks ||
       !sameBits(a.guard.frame_motion_m_per_s, b.guard.frame_motion_m_per_s) ||
-      a.guard.calm_frames != b.guard.calm_frames || a.guard.calm_scale != b.guard.calm_scale ||
-      a.guard.drive_fingerprint != b.guard.drive_fingerprint) {
+      a.guard.calm_frames != b.guard.calm_frames || a.guard.drive_fingerprint != b.guard.drive_fingerprint) {
     return ::testing::AssertionFailure() << "guard memory differs";
   }
   const ClothState& sa = a.state;
@@ -426,7 +425,6 @@ TEST(Restore, InvalidOptionsAreRefusedByName) {
   expectRefused([](SimulationSnapshot& s) { s.guard.frame_motion_m_per_s = std::nan(""); }, "guard memory");
   expectRefused([](SimulationSnapshot& s) { s.guard.frame_motion_m_per_s = -1.0; }, "guard memory");
   expectRefused([](SimulationSnapshot& s) { s.guard.calm_frames = -1; }, "guard memory");
-  expectRefused([](SimulationSnapshot& s) { s.guard.calm_scale = 0; }, "guard memory");
   expectRefused([](SimulationSnapshot& s) { s.guard.calm_frames = Simulation::sleepAfterFrames(s.options) + 1; }, "guard memory");
   expectRefused([](SimulationSnapshot& s) { s.options.springs[0].stiffness_N_per_m = kNaN; }, "stiffness");
 }
@@ -712,9 +710,8 @@ TEST(StateFile, RoundTripIsBitExact) {
 
 /// The CALM section (version 4 on): a tag, an 8-byte length and the last frame's motion (a double).
 constexpr std::size_t kMotionSectionBytes = 4 + 8 + 8;
-/// The SLEP section (version 5 on): a tag, an 8-byte length, the calm frames and their lowest scale (int32
-/// each) and the drive (uint64).
-constexpr std::size_t kSleepSectionBytes = 4 + 8 + 4 + 4 + 8;
+/// The SLEP section (version 5 on): a tag, an 8-byte length, the calm frames (int32) and the drive (uint64).
+constexpr std::size_t kSleepSectionBytes = 4 + 8 + 4 + 8;
 
 /// bytes, an encoded file, cut to its first `version`'s sections: the last `cut` bytes dropped.
 std::string asOlderVersion(std::string bytes, std::uint32_t version, std::size_t cut) {
@@ -750,7 +747,6 @@ TEST(StateFile, AVersion4FileStillLoadsAwake) {
   ASSERT_TRUE(decodeStateFile(asOlderVersion(bytes, 4, kSleepSectionBytes), &loaded, &error)) << error;
   EXPECT_EQ(loaded.guard.calm_frames, 0) << "an older file's cloth must be seen at rest before it sleeps";
   saved.guard.calm_frames = 0;
-  saved.guard.calm_scale = GuardMemory().calm_scale;
   saved.guard.drive_fingerprint = 0;
   EXPECT_TRUE(sameSnapshot(saved, loaded));
 }
@@ -767,7 +763,6 @@ TEST(StateFile, AVersion3FileStillLoadsWithNoFrameMotionMeasured) {
   EXPECT_TRUE(std::isinf(loaded.guard.frame_motion_m_per_s)) << "an older file's cloth must not count as calm";
   saved.guard.frame_motion_m_per_s = GuardMemory().frame_motion_m_per_s;
   saved.guard.calm_frames = 0;
-  saved.guard.calm_scale = GuardMemory().calm_scale;
   saved.guard.drive_fingerprint = 0;
   EXPECT_TRUE(sameSnapshot(saved, loaded));
 }
@@ -789,7 +784,6 @@ TEST(StateFile, AVersion2FileStillLoadsWithNoGrippersOrLinkPoses) {
   ASSERT_TRUE(decodeStateFile(asOlderVersion(bytes, 2, kNewer + 2 * kEmptySectionBytes), &loaded, &error)) << error;
   saved.guard.frame_motion_m_per_s = GuardMemory().frame_motion_m_per_s;
   saved.guard.calm_frames = 0;
-  saved.guard.calm_scale = GuardMemory().calm_scale;
   saved.guard.drive_fingerprint = 0;
   EXPECT_TRUE(sameSnapshot(saved, loaded));
 }
@@ -946,10 +940,10 @@ TEST(StateFile, SizesOfOrdinarySnapshots) {
     std::printf("[ size       ] hanging %dx%d: %zu bytes\n", side, side, size);
     // Header, 8 section headers (tag + length), options text, state, inputs, guard memory (2 x int32),
     // grippers and frame colliders (a count of 0 each), the last frame's motion (a double), the calm
-    // frames, their lowest scale and the drive (two int32 and a uint64).
+    // frames and the drive (an int32 and a uint64).
     EXPECT_EQ(size, StateFileFormat::kHeaderBytes + 8 * 12 + sceneYaml(snapshot.options).size() +
                         (8 + 8 + 8 + 48 * static_cast<std::size_t>(side * side)) + (24 + 8 + 2 * 4 + 2 * 48 + 8) + 8 +
-                        8 + 8 + 8 + (4 + 4 + 8));
+                        8 + 8 + 8 + (4 + 8));
   }
 }
 

@@ -267,8 +267,6 @@ class Simulation {
   /// frames were calm, nothing drives it or changed since, and it is not a frame the sleeping cloth is
   /// checked on (sleepCheckFrames).
   bool sleepsThrough(bool driven, std::uint64_t drive) const;
-  /// Counts the computed frame towards sleep (GuardMemory::calm_frames) or starts the count again.
-  void rememberCalm(bool driven, std::uint64_t drive, double motion_m_per_s, const FrameReport& report);
   /// Advances time and frame number over a frame the cloth sleeps through; *report says so.
   void sleepThroughFrame(FrameReport* report);
   /// Runs one frame in the given number of substeps from the current state; adds the integrator's work

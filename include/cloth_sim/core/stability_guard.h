@@ -111,11 +111,6 @@ struct GuardMemory {
   /// Frames in a row computed while nothing drove the cloth and no particle moved faster than the
   /// options' sleep_speed, up to Simulation::sleepAfterFrames(): from there on the cloth sleeps.
   int calm_frames = 0;
-  /// The lowest auto_scale among those calm frames: a calm frame that lowers the scale below it (a trial
-  /// `auto` kept) starts the count again, so a cloth sleeps once `auto` has come down to what it needs. A
-  /// scale that only comes back up to where it was (a trial at one step kept, the next frame refined to
-  /// two, as a folded towel's fold line does) does not keep it awake.
-  int calm_scale = 1;
   /// What drove the last frame (Simulation's fingerprint of the inputs): a frame that starts with another
   /// one is computed, and counts as calm only from the next frame on.
   std::uint64_t drive_fingerprint = 0;
