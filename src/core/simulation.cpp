@@ -228,8 +228,10 @@ bool Simulation::isCalm(double motion_m_per_s, double strain) {
 
 int Simulation::frameAutoScale() const {
   // Only a calm cloth tries fewer substeps: one in motion (a flag in the wind, a cloth a hand drags) is
-  // what needed them, and a trial there would only cost a recomputation.
-  const bool trial = memory_.auto_scale > 1 && options_.guard_retries &&
+  // what needed them, and a trial there would only cost a recomputation. Nor one on its way to sleep
+  // (calm_frames above 0): it wakes at one substep anyway, and the trial itself may stir it (a folded
+  // towel's fold line sags up to kTrialSettle_m at one step, and the guard refines it back to two).
+  const bool trial = memory_.auto_scale > 1 && options_.guard_retries && memory_.calm_frames == 0 &&
                      (state_.frame + 1) % GuardMemory::kScaleTrialFrames == 0 &&
                      isCalm(memory_.frame_motion_m_per_s, maxStructuralStrain());
   return trial ? memory_.auto_scale / 2 : memory_.auto_scale;
@@ -352,6 +354,19 @@ FrameReport Simulation::advanceFrame() {
     bound_stale_ = false;
   }
   report.stable_step_s = stableStepLimit_s(options_.integrator, bound_);
+  holdUnmovedBodies();
+  const bool driven = isDriven();
+  const std::uint64_t drive = driveFingerprint();
+  if (sleepsThrough(driven, drive)) {
+    sleepThroughFrame(&report);
+    return report;
+  }
+  if (memory_.calm_frames >= sleepAfterFrames(options_) && (driven || drive != memory_.drive_fingerprint)) {
+    // Waking: what moves it now is not what `auto`'s scale was raised for (it came to rest before it
+    // slept, and no trial came on the way: frameAutoScale). From one step a frame, the guard refines
+    // where this motion needs more.
+    memory_.auto_scale = 1;
+  }
   std::string warning;
   int auto_scale = frameAutoScale();
   int first_substeps = firstSubsteps(report.stable_step_s, auto_scale, &warning);
@@ -362,13 +377,6 @@ FrameReport Simulation::advanceFrame() {
     fixed << "step " << step_s << " s is " << report.stability_margin << "x the largest stable step of "
           << integratorName(options_.integrator) << " (" << report.stable_step_s << " s): use substeps: auto";
     warning = fixed.str();
-  }
-  holdUnmovedBodies();
-  const bool driven = isDriven();
-  const std::uint64_t drive = driveFingerprint();
-  if (sleepsThrough(driven, drive)) {
-    sleepThroughFrame(&report);
-    return report;
   }
   frame_start_ = state_;
   const FrameEnvelope envelope = frameEnvelope();
@@ -393,18 +401,13 @@ FrameReport Simulation::advanceFrame() {
   report.recomputed = accepted && report.substeps_used != first_substeps;
   last_substeps_ = report.substeps_used;
   if (accepted) {
-    const int scale_before = memory_.auto_scale;
     rememberFrame(report, first_substeps, auto_scale);
     memory_.frame_motion_m_per_s = motion_m_per_s;
     memory_.consecutive_rollbacks = 0;
     // Calm: nothing drove the cloth, nothing changed since the frame before, and it stood still. A frame
-    // with a crossing the self-collision could not prevent is never calm (the guard must keep seeing it),
-    // nor one that changed `auto`'s scale: a cloth at rest first comes down to the substeps it needs (a
-    // trial every GuardMemory::kScaleTrialFrames, fewer frames than sleepAfterFrames), so that it
-    // wakes with them, not with those a jerk left.
+    // with a crossing the self-collision could not prevent is never calm (the guard must keep seeing it).
     const bool calm = options_.sleep_speed_m_per_s > 0.0 && !driven && drive == memory_.drive_fingerprint &&
-                      motion_m_per_s <= options_.sleep_speed_m_per_s && report.self_collision.forced == 0 &&
-                      memory_.auto_scale == scale_before;
+                      motion_m_per_s <= options_.sleep_speed_m_per_s && report.self_collision.forced == 0;
     memory_.calm_frames = calm ? std::min(memory_.calm_frames + 1, sleepAfterFrames(options_)) : 0;
     memory_.drive_fingerprint = drive;
   } else if (++memory_.consecutive_rollbacks >= GuardMemory::kRollbacksBeforeRecovery) {
@@ -480,8 +483,7 @@ std::uint64_t Simulation::driveFingerprint() const {
 }
 
 int Simulation::sleepAfterFrames(const SceneOptions& options) {
-  const int frames = static_cast<int>(std::ceil(SceneOptions::kSleepAfter_s * options.frame_rate_hz));
-  return std::max(frames, static_cast<int>(GuardMemory::kScaleTrialFrames) + 1);
+  return std::max(1, static_cast<int>(std::ceil(SceneOptions::kSleepAfter_s * options.frame_rate_hz)));
 }
 
 int Simulation::sleepCheckFrames(const SceneOptions& options) {

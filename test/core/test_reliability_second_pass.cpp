@@ -213,21 +213,26 @@ TEST(SecondPass, EveryStringOptionIsBoundedAndAStateFileCarryingALongNameIsRefus
 
 // ---- 7. `substeps: auto` comes back down ------------------------------------------------------------
 
-TEST(SecondPass, AutoSubstepsComeBackToWhatTheSceneNeedsOnceTheClothIsCalm) {
+/// The trials at fewer substeps are what these tests measure: with sleep on (the default) a cloth at rest
+/// sleeps instead and wakes at one substep (Sleep.AClothJerkedToManySubstepsSleepsAndWakesAtOne).
+SceneOptions hangingAwake(int side) {
   SceneOptions options = test::loadBuiltinScene("hanging");
-  options.rows = 10;
-  options.cols = 10;
+  options.rows = side;
+  options.cols = side;
+  options.sleep_speed_m_per_s = 0.0;
+  return options;
+}
+
+TEST(SecondPass, AutoSubstepsComeBackToWhatTheSceneNeedsOnceTheClothIsCalm) {
+  SceneOptions options = hangingAwake(10);
   ASSERT_TRUE(options.autoSubsteps());
   Simulation simulation(options);
   for (int frame = 0; frame < 100; ++frame) ASSERT_TRUE(simulation.advanceFrame().stable);
-  // By now the cloth sleeps (sleep_speed): the substeps it was last computed with are the ones it needs.
-  const int calm_substeps = simulation.lastFrameSubsteps();
+  const int calm_substeps = simulation.advanceFrame().substeps_used;
   ASSERT_EQ(simulation.guardMemory().auto_scale, 1) << "the calm scene itself needs no scale";
-  // What repeated grasp jerks left behind (issue 18: 1 -> 4 -> ... -> 64), on a cloth now at rest (jerks
-  // moved it: it does not count as calm yet).
+  // What repeated grasp jerks left behind (issue 18: 1 -> 4 -> ... -> 64), on a cloth now at rest.
   SimulationSnapshot jerked = simulation.snapshot();
   jerked.guard.auto_scale = GuardMemory::kMaxScale;
-  jerked.guard.calm_frames = 0;
   std::string error;
   ASSERT_TRUE(simulation.restore(jerked, &error)) << error;
   // Back within six trials (one halving each), about 2 s at 50 Hz; every frame on the way accepted.
@@ -248,13 +253,11 @@ TEST(SecondPass, AutoSubstepsComeBackToWhatTheSceneNeedsOnceTheClothIsCalm) {
 }
 
 TEST(SecondPass, AfterGraspJerksStopTheSubstepsReturnToWhatTheSceneNeededWithinSeconds) {
-  SceneOptions options = test::loadBuiltinScene("hanging");
-  options.rows = 10;
-  options.cols = 10;
+  SceneOptions options = hangingAwake(10);
   Simulation simulation(options);
   for (int frame = 0; frame < 100; ++frame) ASSERT_TRUE(simulation.advanceFrame().stable);
   ASSERT_EQ(simulation.guardMemory().auto_scale, 1);
-  const int calm_substeps = simulation.lastFrameSubsteps();  // what it was last computed with (it may sleep now)
+  const int calm_substeps = simulation.advanceFrame().substeps_used;
   // A hand on the bottom corner jerked 1.6 m to and fro every frame, as the issue's hard jerks: the
   // guard recomputes frames with more substeps and remembers the scale.
   GraspRequest hand;
@@ -286,9 +289,7 @@ TEST(SecondPass, AfterGraspJerksStopTheSubstepsReturnToWhatTheSceneNeededWithinS
 
 TEST(SecondPass, AScaleTheClothStillNeedsIsKeptAndTheTrialFramesStayBitExactThroughAFile) {
   // A restored run tries the same frames: the trial follows the frame number, which the file holds.
-  SceneOptions options = test::loadBuiltinScene("hanging");
-  options.rows = 8;
-  options.cols = 8;
+  SceneOptions options = hangingAwake(8);
   Simulation original(options);
   for (int frame = 0; frame < 5; ++frame) original.advanceFrame();
   SimulationSnapshot jerked = original.snapshot();
@@ -314,14 +315,11 @@ TEST(SecondPass, ACalmClothSavedJustBeforeATrialFrameTriesItAfterLoadingToo) {
   // as the uninterrupted run does. Without it (an older file) the trial would not come.
   constexpr int kJerkedScale = 8;
   constexpr std::uint64_t kFramesAfter = 40;
-  SceneOptions options = test::loadBuiltinScene("hanging");
-  options.rows = 10;
-  options.cols = 10;
+  SceneOptions options = hangingAwake(10);
   Simulation original(options);
   for (int frame = 0; frame < 100; ++frame) ASSERT_TRUE(original.advanceFrame().stable);
   SimulationSnapshot jerked = original.snapshot();
   jerked.guard.auto_scale = kJerkedScale;
-  jerked.guard.calm_frames = 0;  // the jerks moved it: not asleep
   std::string error;
   ASSERT_TRUE(original.restore(jerked, &error)) << error;
   while ((original.state().frame + 1) % GuardMemory::kScaleTrialFrames != 0) {

@@ -91,8 +91,8 @@ class Simulation {
   /// equal transforms, or a pose sent again, may differ from the last in its last bits, which must not
   /// keep a cloth awake (1 nm/s: 1 um in a quarter of an hour).
   static constexpr double kHeldStillSpeed_m_per_s = 1e-9;
-  /// Frames the cloth must stay calm before it sleeps: SceneOptions::kSleepAfter_s at the frame rate, and
-  /// more than GuardMemory::kScaleTrialFrames, so that `auto` has tried fewer substeps before it sleeps.
+  /// Frames the cloth must stay calm before it sleeps: SceneOptions::kSleepAfter_s at the frame rate (at
+  /// least 1).
   static int sleepAfterFrames(const SceneOptions& options);
   /// A sleeping cloth is computed on the frames whose number is a multiple of this
   /// (SceneOptions::kSleepCheckPeriod_s at the frame rate).
