@@ -216,14 +216,19 @@ TEST(Sleep, EveryInputWakesItBeforeTheNextFrameAndTheClothMoves) {
   }
 }
 
-TEST(Sleep, AGripperAndALinkHeldStillLetItSleepWhateverTheirRoundingAndMovingEitherWakesIt) {
+/// The small hanging cloth with a sphere on a tf frame (a robot link), not yet posed.
+SceneOptions hangingWithASphereLink(const std::string& frame, double radius_m) {
   SceneOptions options = smallHanging();
-  FrameCollider forearm;
-  forearm.frame = "forearm";
-  forearm.shape = ShapeKind::kSphere;
-  forearm.radius_m = 0.05;
-  options.colliders.frames = {forearm};
-  Simulation simulation(options);
+  FrameCollider link;
+  link.frame = frame;
+  link.shape = ShapeKind::kSphere;
+  link.radius_m = radius_m;
+  options.colliders.frames = {link};
+  return options;
+}
+
+TEST(Sleep, AGripperAndALinkHeldStillLetItSleepWhateverTheirRoundingAndMovingEitherWakesIt) {
+  Simulation simulation(hangingWithASphereLink("forearm", 0.05));
   std::vector<int> held;
   std::string error;
   const GripperRequest gripper = gripperOn(simulation, 95);
@@ -264,13 +269,7 @@ TEST(Sleep, AGripperAndALinkHeldStillLetItSleepWhateverTheirRoundingAndMovingEit
 }
 
 TEST(Sleep, ALinkFirstSeenInsideTheClothWakesIt) {
-  SceneOptions options = smallHanging();
-  FrameCollider ball;
-  ball.frame = "ball";
-  ball.shape = ShapeKind::kSphere;
-  ball.radius_m = 0.1;
-  options.colliders.frames = {ball};
-  Simulation simulation(options);
+  Simulation simulation(hangingWithASphereLink("ball", 0.1));
   ASSERT_GE(framesUntilAsleep(simulation), 0);
   Pose on_the_cloth;
   on_the_cloth.position_m = simulation.state().positions_m.col(45);

@@ -88,6 +88,18 @@ double distance(const geometry_msgs::Point& a, const geometry_msgs::Point& b) {
   return std::sqrt((a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y) + (a.z - b.z) * (a.z - b.z));
 }
 
+/// A ~grasp GRAB of `particle` towards `target` (world frame) with a spring of `stiffness` N/m.
+cloth_sim::Grasp grabMessage(std::uint32_t id, int particle, const geometry_msgs::Point& target, double stiffness) {
+  cloth_sim::Grasp grab;
+  grab.header.frame_id = "world";
+  grab.id = id;
+  grab.action = cloth_sim::Grasp::GRAB;
+  grab.particle = particle;
+  grab.target = target;
+  grab.stiffness = stiffness;
+  return grab;
+}
+
 /// Bit-for-bit comparison of positions and velocities; reports the first difference.
 ::testing::AssertionResult sameBits(const ClothState& a, const ClothState& b) {
   if (a.positions.size() != b.positions.size() || a.velocities.size() != b.velocities.size()) {
@@ -378,13 +390,7 @@ TEST_F(NodeTest, GraspReachesTargetAndReleaseLetsItFall) {
   constexpr double kTolerance_m = 0.02;
   ros::Publisher grasp_pub = nh_.advertise<cloth_sim::Grasp>(nodeTopic("grasp"), 10);
   ASSERT_TRUE(waitForSubscribers(grasp_pub, 1, 10.0));
-  cloth_sim::Grasp grab;
-  grab.header.frame_id = "world";
-  grab.id = 1;
-  grab.action = cloth_sim::Grasp::GRAB;
-  grab.particle = particle;
-  grab.target = target;
-  grab.stiffness = kStiffness_N_per_m;
+  const cloth_sim::Grasp grab = grabMessage(1, particle, target, kStiffness_N_per_m);
   const std::uint64_t since = states_->count();
   grasp_pub.publish(grab);
   const auto reached = states_->waitFor(
@@ -977,14 +983,9 @@ TEST_F(NodeTest, AClothAtRestSleepsAndAGraspWakesIt) {
   const int particle = static_cast<int>((kHangingRows - 1) * kHangingCols);  // bottom-left corner, free
   ros::Publisher grasp_pub = nh_.advertise<cloth_sim::Grasp>(nodeTopic("grasp"), 10);
   ASSERT_TRUE(waitForSubscribers(grasp_pub, 1, 10.0));
-  cloth_sim::Grasp grab;
-  grab.header.frame_id = "world";
-  grab.id = 3;
-  grab.action = cloth_sim::Grasp::GRAB;
-  grab.particle = particle;
-  grab.target = later->positions[particle];
-  grab.target.y += 0.2;
-  grab.stiffness = 500.0;
+  geometry_msgs::Point target = later->positions[particle];
+  target.y += 0.2;
+  const cloth_sim::Grasp grab = grabMessage(3, particle, target, 500.0);
   const std::uint64_t since = states_->count();
   const std::uint64_t diagnostics_since = diagnostics.count();
   grasp_pub.publish(grab);
