@@ -14,7 +14,9 @@ Prints a markdown table (doc/BENCHMARKS.md quotes it); --json FILE appends one J
 cloth from the ~mesh marker (rviz/Marker) or from ~state (the package's cloth_sim/ClothState display), and
 measures once rviz has subscribed: what drawing the cloth in rviz costs the node. --paused pauses the node
 first (~pause: it republishes every frame, no physics), so only publishing and viewing are measured. The
-node's and rviz's CPU time over the first window are reported in % of one core.
+node's and rviz's CPU time over the first window are reported in % of one core, and the share of the node's
+statuses over that window that said the cloth was asleep (sleep_speed). --skip S starts the first window S
+seconds after the first message (default 2: past the start-up; 20: the scenes at rest).
 Needs the package built and its devel/setup.bash sourced (make rates does both).
 """
 import argparse
@@ -102,13 +104,15 @@ def summarise(statuses):
         cost = mean_of("step cost [ms]")
     last = statuses[-1] if statuses else None
     levels = {0: "OK", 1: "WARN", 2: "ERROR", 3: "STALE"}
+    asleep = [entry.value == "True" for status in statuses for entry in status.values if entry.key == "asleep"]
     return {"step_cost_ms": cost, "real_time_factor": mean_of("real-time factor"),
+            "asleep_share": sum(asleep) / len(asleep) if asleep else None,
             "level": levels.get(ord(last.level) if isinstance(last.level, bytes) else last.level) if last else None,
             "message": last.message if last else None}
 
 
-def measure_rates(rate_tool, topics, seconds):
-    result = subprocess.run([rate_tool, "--seconds", str(seconds), "--skip", str(SKIP_S), "--wait", str(READY_S)]
+def measure_rates(rate_tool, topics, seconds, skip_s=SKIP_S):
+    result = subprocess.run([rate_tool, "--seconds", str(seconds), "--skip", str(skip_s), "--wait", str(READY_S)]
                             + topics, stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
     lines = [line for line in result.stdout.splitlines() if line.startswith("{")]
     if not lines:
@@ -165,7 +169,7 @@ def pause(node_name, paused):
         raise RuntimeError("~pause refused: " + answer.message)
 
 
-def run_one(node_binary, rate_tool, diagnostics, proxy, scene, side, seconds, log, start_viewers, paused):
+def run_one(node_binary, rate_tool, diagnostics, proxy, scene, side, seconds, log, start_viewers, paused, skip_s):
     node = subprocess.Popen([node_binary, "__name:=cloth_node", "_scene:=" + scene, "_rows:=%d" % side,
                              "_cols:=%d" % side], stdout=log, stderr=subprocess.STDOUT)
     try:
@@ -181,7 +185,7 @@ def run_one(node_binary, rate_tool, diagnostics, proxy, scene, side, seconds, lo
         watched = {"node": node.pid, "rviz": viewers[0].pid if viewers else None}
         cpu_before = {name: cpu_s(pid) for name, pid in watched.items() if pid}
         wall_before = time.monotonic()
-        alone = measure_rates(rate_tool, ["/cloth_node/state"], seconds)["/cloth_node/state"]
+        alone = measure_rates(rate_tool, ["/cloth_node/state"], seconds, skip_s)["/cloth_node/state"]
         wall_s = time.monotonic() - wall_before
         # CPU share over the whole measurement (cloth_topic_rate's start-up skip included), % of one core.
         cpu = {name + "_cpu_percent": 100.0 * (cpu_s(watched[name]) - before) / wall_s
@@ -203,17 +207,18 @@ def fmt(value, digits=1):
 
 def table(runs):
     lines = ["| scene | grid | ~state Hz | period p50 / p99 ms | step cost ms | real-time factor | "
-             "~state Hz with ~mesh | ~mesh Hz | node CPU % | rviz CPU % | diagnostics |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "~state Hz with ~mesh | ~mesh Hz | node CPU % | rviz CPU % | asleep | diagnostics |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for run in runs:
         status = run["level"] or "-"
         if run["level"] not in (None, "OK") and run["message"]:
             status += ": " + run["message"]
-        lines.append("| %s | %dx%d | %s | %s / %s | %s | %s | %s | %s | %s | %s | %s |" % (
+        lines.append("| %s | %dx%d | %s | %s / %s | %s | %s | %s | %s | %s | %s | %s | %s |" % (
             run["scene"], run["rows"], run["cols"], fmt(run["state_hz"]), fmt(run["state_period_ms"]["p50"]),
             fmt(run["state_period_ms"]["p99"]), fmt(run["step_cost_ms"]), fmt(run["real_time_factor"], 2),
             fmt(run["state_hz_with_mesh"]), fmt(run["mesh_hz"]), fmt(run.get("node_cpu_percent"), 0),
-            fmt(run.get("rviz_cpu_percent"), 0), status))
+            fmt(run.get("rviz_cpu_percent"), 0),
+            "-" if run.get("asleep_share") is None else "%.0f %%" % (100.0 * run["asleep_share"]), status))
     return "\n".join(lines)
 
 
@@ -224,6 +229,9 @@ def main():
     parser.add_argument("--scenes", default=",".join(builtin), help="comma-separated (default: every built-in scene)")
     parser.add_argument("--sizes", default="64,128", help="particles per side, comma-separated")
     parser.add_argument("--seconds", type=float, default=5.0, help="measured seconds of each of the two windows")
+    parser.add_argument("--skip", type=float, default=SKIP_S,
+                        help="seconds of ~state left out before the first window (default %(default)s: the start-up); "
+                             "e.g. 20 to measure the scenes once they have come to rest (and may sleep)")
     parser.add_argument("--json", metavar="FILE", help="also append each run as one JSON line to FILE")
     parser.add_argument("--rviz", choices=["none", "marker", "plugin"], default="none",
                         help="also run rviz drawing the cloth from ~mesh (marker) or from ~state (plugin)")
@@ -255,7 +263,7 @@ def main():
                     return viewers
                 try:
                     run = run_one(node_binary, rate_tool, diagnostics, proxy, scene, side, args.seconds, log,
-                                  start_viewers, args.paused)
+                                  start_viewers, args.paused, args.skip)
                 finally:
                     for process in viewers:
                         stop(process)

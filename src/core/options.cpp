@@ -357,6 +357,7 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   problems.inRange("self_collision_friction", o.self_collision.friction, 0.0, L::kMaxFriction);
   problems.inRange("grasp_stiffness", o.grasp_stiffness_N_per_m, 0.0, L::kMaxStiffnessN_per_m);
   problems.inRange("grasp_damping", o.grasp_damping_N_s_per_m, 0.0, L::kMaxDampingN_s_per_m);
+  problems.inRange("sleep_speed", o.sleep_speed_m_per_s, 0.0, L::kMaxSleepSpeed_m_per_s);
   if (!o.autoSubsteps()) problems.inRange("substeps", o.substeps, 1, L::kMaxSubsteps);
   problems.inRange("solver_tolerance", o.solver.tolerance, L::kMinSolverTolerance, 1.0);
   problems.inRange("solver_max_iterations", o.solver.max_iterations, 1, L::kMaxSolverIterations);

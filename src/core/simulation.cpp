@@ -6,6 +6,7 @@
 #include <limits>
 #include <sstream>
 #include <stdexcept>
+#include <type_traits>
 
 namespace cloth_sim::core {
 
@@ -70,6 +71,34 @@ Eigen::VectorXd particleMasses(const SceneOptions& options, const ClothGrid& gri
   return mass;
 }
 
+/// FNV-1a over raw bytes (64-bit): equal inputs give equal fingerprints on one machine, which is all the
+/// sleep test needs (it is kept in the state file beside the state it belongs to).
+class Fingerprint {
+ public:
+  void add(const void* data, std::size_t size) {
+    const auto* bytes = static_cast<const unsigned char*>(data);
+    for (std::size_t i = 0; i < size; ++i) hash_ = (hash_ ^ bytes[i]) * kPrime;
+  }
+  template <typename T>
+  void add(const T& value) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    add(&value, sizeof(T));
+  }
+  /// A count, as 64 bits whatever the platform's size_t (the fingerprint is in the state file).
+  void addCount(std::size_t count) { add(static_cast<std::uint64_t>(count)); }
+  void addMatrix(const Eigen::MatrixXd& values) {
+    addCount(static_cast<std::size_t>(values.rows()));
+    addCount(static_cast<std::size_t>(values.cols()));
+    add(values.data(), sizeof(double) * static_cast<std::size_t>(values.size()));
+  }
+  std::uint64_t value() const { return hash_; }
+
+ private:
+  static constexpr std::uint64_t kOffsetBasis = 14695981039346656037ULL;
+  static constexpr std::uint64_t kPrime = 1099511628211ULL;
+  std::uint64_t hash_ = kOffsetBasis;
+};
+
 /// The options if they are valid; throws std::invalid_argument with the first problem otherwise.
 const SceneOptions& validated(const SceneOptions& options) {
   const std::vector<std::string> problems = validateSceneOptions(options);
@@ -125,6 +154,7 @@ bool Simulation::restoreState(const ClothState& state, std::string* error) {
   current.state = state;
   // The last frame's motion was the old state's: the new one has not been seen moving.
   current.guard.frame_motion_m_per_s = GuardMemory().frame_motion_m_per_s;
+  current.guard.calm_frames = 0;
   return restore(current, error);
 }
 
@@ -198,8 +228,10 @@ bool Simulation::isCalm(double motion_m_per_s, double strain) {
 
 int Simulation::frameAutoScale() const {
   // Only a calm cloth tries fewer substeps: one in motion (a flag in the wind, a cloth a hand drags) is
-  // what needed them, and a trial there would only cost a recomputation.
-  const bool trial = memory_.auto_scale > 1 && options_.guard_retries &&
+  // what needed them, and a trial there would only cost a recomputation. Nor one on its way to sleep
+  // (calm_frames above 0): it wakes at one substep anyway, and the trial itself may stir it (a folded
+  // towel's fold line sags up to kTrialSettle_m at one step, and the guard refines it back to two).
+  const bool trial = memory_.auto_scale > 1 && options_.guard_retries && memory_.calm_frames == 0 &&
                      (state_.frame + 1) % GuardMemory::kScaleTrialFrames == 0 &&
                      isCalm(memory_.frame_motion_m_per_s, maxStructuralStrain());
   return trial ? memory_.auto_scale / 2 : memory_.auto_scale;
@@ -322,6 +354,19 @@ FrameReport Simulation::advanceFrame() {
     bound_stale_ = false;
   }
   report.stable_step_s = stableStepLimit_s(options_.integrator, bound_);
+  holdUnmovedBodies();
+  const bool driven = isDriven();
+  const std::uint64_t drive = driveFingerprint();
+  if (sleepsThrough(driven, drive)) {
+    sleepThroughFrame(&report);
+    return report;
+  }
+  if (memory_.calm_frames >= sleepAfterFrames(options_) && (driven || drive != memory_.drive_fingerprint)) {
+    // Waking: what moves it now is not what `auto`'s scale was raised for (it came to rest before it
+    // slept, and no trial came on the way: frameAutoScale). From one step a frame, the guard refines
+    // where this motion needs more.
+    memory_.auto_scale = 1;
+  }
   std::string warning;
   int auto_scale = frameAutoScale();
   int first_substeps = firstSubsteps(report.stable_step_s, auto_scale, &warning);
@@ -333,7 +378,6 @@ FrameReport Simulation::advanceFrame() {
           << integratorName(options_.integrator) << " (" << report.stable_step_s << " s): use substeps: auto";
     warning = fixed.str();
   }
-  holdUnmovedBodies();
   frame_start_ = state_;
   const FrameEnvelope envelope = frameEnvelope();
   bool accepted = computeFrame(envelope, first_substeps, &report);
@@ -360,11 +404,18 @@ FrameReport Simulation::advanceFrame() {
     rememberFrame(report, first_substeps, auto_scale);
     memory_.frame_motion_m_per_s = motion_m_per_s;
     memory_.consecutive_rollbacks = 0;
+    // Calm: nothing drove the cloth, nothing changed since the frame before, and it stood still. A frame
+    // with a crossing the self-collision could not prevent is never calm (the guard must keep seeing it).
+    const bool calm = options_.sleep_speed_m_per_s > 0.0 && !driven && drive == memory_.drive_fingerprint &&
+                      motion_m_per_s <= options_.sleep_speed_m_per_s && report.self_collision.forced == 0;
+    memory_.calm_frames = calm ? std::min(memory_.calm_frames + 1, sleepAfterFrames(options_)) : 0;
+    memory_.drive_fingerprint = drive;
   } else if (++memory_.consecutive_rollbacks >= GuardMemory::kRollbacksBeforeRecovery) {
     accepted = recover(envelope, &report);
   }
   std::ostringstream reason;
   if (!accepted) {
+    memory_.calm_frames = 0;
     report.stable = false;
     reason << "frame " << state_.frame + 1 << " (" << integratorName(options_.integrator) << ") " << report.rejection
            << ": rolled back to the previous frame";
@@ -393,6 +444,69 @@ FrameReport Simulation::advanceFrame() {
   }
   report.reason = reason.str();
   return report;
+}
+
+bool Simulation::isDriven() const {
+  const Kinematics& kinematics = force_model_.kinematics();
+  for (std::size_t body = 0; body < kinematics.bodies().size(); ++body) {
+    if (kinematics.peakSpeed_m_per_s(body, state_.time_s) > kHeldStillSpeed_m_per_s) return true;
+  }
+  return options_.wind_enabled && options_.wind.gust_amplitude != 0.0 && !inputs_.wind_m_per_s.isZero(0.0);
+}
+
+std::uint64_t Simulation::driveFingerprint() const {
+  Fingerprint print;
+  print.add(options_.wind_enabled);
+  print.addMatrix(inputs_.wind_m_per_s);
+  for (const Grasp& grasp : inputs_.grasps) {
+    print.add(grasp.id);
+    print.add(grasp.particle);
+    print.addMatrix(grasp.target_m);
+    print.add(grasp.stiffness_N_per_m);
+    print.add(grasp.damping_N_s_per_m);
+    print.addMatrix(grasp.extra_force_N);
+  }
+  print.addCount(inputs_.pins.size());
+  print.add(inputs_.pins.data(), sizeof(int) * inputs_.pins.size());
+  print.addMatrix(inputs_.pin_anchors_m);
+  print.addMatrix(inputs_.pin_travel_m);
+  for (const Gripper& gripper : inputs_.grippers) {
+    print.add(gripper.id);
+    print.addCount(gripper.particles.size());
+    print.add(gripper.particles.data(), sizeof(int) * gripper.particles.size());
+    print.addMatrix(gripper.offsets_m);
+    print.add(gripper.max_force_N);
+  }
+  // A link's first pose places it without sweeping it there: only the change of `seen` says it came.
+  for (const FrameColliderTrack& link : inputs_.frame_colliders) print.add(link.seen);
+  return print.value();
+}
+
+int Simulation::sleepAfterFrames(const SceneOptions& options) {
+  return std::max(1, static_cast<int>(std::ceil(SceneOptions::kSleepAfter_s * options.frame_rate_hz)));
+}
+
+int Simulation::sleepCheckFrames(const SceneOptions& options) {
+  return std::max(1, static_cast<int>(std::ceil(SceneOptions::kSleepCheckPeriod_s * options.frame_rate_hz)));
+}
+
+bool Simulation::sleepsThrough(bool driven, std::uint64_t drive) const {
+  // By frame number, so that a restored run checks on the same frames.
+  const bool check_frame = (state_.frame + 1) % static_cast<std::uint64_t>(sleepCheckFrames(options_)) == 0;
+  return options_.sleep_speed_m_per_s > 0.0 && memory_.calm_frames >= sleepAfterFrames(options_) && !driven &&
+         drive == memory_.drive_fingerprint && !check_frame;
+}
+
+void Simulation::sleepThroughFrame(FrameReport* report) {
+  // The cloth stood still for sleepAfterFrames frames under the same inputs, with nothing moving it:
+  // no particle moved more than sleep_speed times a frame's duration in any of them, so this frame is not
+  // computed and only time goes on. The substeps `auto` remembers, the gripper wrenches and the energies
+  // stay those of the last computed frame, whose state this still is.
+  report->asleep = true;
+  report->substeps_used = 0;
+  report->max_strain = energy_cache_valid_ ? cached_strain_ : maxStructuralStrain();
+  state_.time_s += options_.frameDuration_s();
+  ++state_.frame;
 }
 
 bool Simulation::recover(const FrameEnvelope& envelope, FrameReport* report) {
@@ -959,12 +1073,14 @@ bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error)
   if (problem.empty() && (guard.auto_scale < 1 || guard.auto_scale > GuardMemory::kMaxScale ||
                           (guard.auto_scale & (guard.auto_scale - 1)) != 0 || guard.consecutive_rollbacks < 0 ||
                           guard.consecutive_rollbacks >= GuardMemory::kRollbacksBeforeRecovery ||
-                          !(guard.frame_motion_m_per_s >= 0.0))) {
+                          !(guard.frame_motion_m_per_s >= 0.0) || guard.calm_frames < 0 ||
+                          guard.calm_frames > sleepAfterFrames(options))) {
     problem = "guard memory: auto scale " + std::to_string(guard.auto_scale) + " (a power of two up to " +
               std::to_string(GuardMemory::kMaxScale) + "), rollbacks in a row " +
               std::to_string(guard.consecutive_rollbacks) + " (below " +
               std::to_string(GuardMemory::kRollbacksBeforeRecovery) + "), last frame's motion " +
-              std::to_string(guard.frame_motion_m_per_s) + " m/s (at least 0)";
+              std::to_string(guard.frame_motion_m_per_s) + " m/s (at least 0), calm frames " +
+              std::to_string(guard.calm_frames) + " (0 to " + std::to_string(sleepAfterFrames(options)) + ")";
   }
   if (!problem.empty()) {
     *error = "snapshot " + problem;

@@ -361,6 +361,7 @@ std::map<std::string, Setter> makeSetters() {
                                                                std::to_string(OptionLimits::kMaxSubsteps) + "]"};
   };
   s["guard_retries"] = [](const YAML::Node& n, SceneOptions& o) { o.guard_retries = readBool(n); };
+  s["sleep_speed"] = [](const YAML::Node& n, SceneOptions& o) { o.sleep_speed_m_per_s = readDouble(n); };
   s["solver_tolerance"] = [](const YAML::Node& n, SceneOptions& o) { o.solver.tolerance = readDouble(n); };
   s["threads"] = [](const YAML::Node& n, SceneOptions& o) { o.threads = readInt(n); };
   s["solver_max_iterations"] = [](const YAML::Node& n, SceneOptions& o) { o.solver.max_iterations = readInt(n); };
@@ -672,6 +673,7 @@ std::string sceneYaml(const SceneOptions& o) {
     key("substeps") << o.substeps;
   }
   boolean("guard_retries", o.guard_retries);
+  number("sleep_speed", o.sleep_speed_m_per_s);
   number("solver_tolerance", o.solver.tolerance);
   key("solver_max_iterations") << o.solver.max_iterations;
   key("solver_preconditioner") << preconditionerName(o.solver.preconditioner);

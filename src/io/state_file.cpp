@@ -32,11 +32,12 @@ constexpr char kGuardTag[4] = {'G', 'A', 'R', 'D'};    ///< GuardMemory (version
 constexpr char kGrippersTag[4] = {'G', 'R', 'I', 'P'};  ///< ClothInputs::grippers (version 3 on)
 constexpr char kLinksTag[4] = {'L', 'I', 'N', 'K'};     ///< ClothInputs::frame_colliders (version 3 on)
 constexpr char kMotionTag[4] = {'C', 'A', 'L', 'M'};    ///< GuardMemory::frame_motion_m_per_s (version 4 on)
-constexpr std::size_t kSectionCount = 7;
+constexpr char kSleepTag[4] = {'S', 'L', 'E', 'P'};     ///< GuardMemory's calm frames and drive (version 5 on)
+constexpr std::size_t kSectionCount = 8;
 /// How many of the sections above a file of each version holds (index: the version, 1 up to
 /// StateFileFormat::kVersion): version 1 files end after the inputs, version 2 files after the guard's
-/// memory, version 3 files after the frame colliders' tracks.
-constexpr std::array<std::size_t, StateFileFormat::kVersion + 1> kSectionsInVersion{0, 3, 4, 6, kSectionCount};
+/// memory, version 3 files after the frame colliders' tracks, version 4 files after the last frame's motion.
+constexpr std::array<std::size_t, StateFileFormat::kVersion + 1> kSectionsInVersion{0, 3, 4, 6, 7, kSectionCount};
 /// Bytes of one gripper before its particles: id, max force, two poses of 7 doubles, start time, duration,
 /// the frame name's length and the particle count.
 constexpr std::size_t kGripperFixedBytes = 4 + 8 + 2 * 7 * 8 + 8 + 8 + 8 + 8;
@@ -293,6 +294,13 @@ std::string encodeMotion(const GuardMemory& guard) {
   return out.bytes();
 }
 
+std::string encodeSleep(const GuardMemory& guard) {
+  Writer out;
+  out.put(static_cast<std::int32_t>(guard.calm_frames));
+  out.put(guard.drive_fingerprint);
+  return out.bytes();
+}
+
 std::string encodeGuard(const GuardMemory& guard) {
   Writer out;
   out.put(static_cast<std::int32_t>(guard.auto_scale));
@@ -354,6 +362,13 @@ double decodeMotion(const std::string& bytes) {
   return motion_m_per_s;
 }
 
+void decodeSleep(const std::string& bytes, GuardMemory* guard) {
+  Reader in(bytes.data(), bytes.size(), "sleep section");
+  guard->calm_frames = in.get<std::int32_t>();
+  guard->drive_fingerprint = in.get<std::uint64_t>();
+  in.expectEnd();
+}
+
 GuardMemory decodeGuard(const std::string& bytes) {
   Reader in(bytes.data(), bytes.size(), "guard section");
   GuardMemory guard;
@@ -397,6 +412,7 @@ std::string encodeStateFile(const SimulationSnapshot& snapshot) {
   payload.section(kGrippersTag, encodeGrippers(snapshot.inputs.grippers));
   payload.section(kLinksTag, encodeLinks(snapshot.inputs.frame_colliders));
   payload.section(kMotionTag, encodeMotion(snapshot.guard));
+  payload.section(kSleepTag, encodeSleep(snapshot.guard));
   Writer file;
   file.putBytes(F::kMagic, sizeof(F::kMagic));
   file.put(F::kByteOrderMark);
@@ -446,7 +462,7 @@ bool decodeStateFile(const std::string& bytes, SimulationSnapshot* snapshot, std
     Reader sections(payload, held, "payload");
     std::array<std::string, kSectionCount> parts;
     const std::array<const char*, kSectionCount> tags{kOptionsTag, kStateTag, kInputsTag, kGuardTag, kGrippersTag,
-                                                      kLinksTag, kMotionTag};
+                                                      kLinksTag, kMotionTag, kSleepTag};
     const std::size_t section_count = kSectionsInVersion[version];
     for (std::size_t s = 0; s < section_count; ++s) {
       const std::string expected(tags[s], kTagBytes);
@@ -471,6 +487,7 @@ bool decodeStateFile(const std::string& bytes, SimulationSnapshot* snapshot, std
       read.inputs.frame_colliders.resize(read.options.colliders.frames.size());  // older files have none
     }
     if (version >= 4) read.guard.frame_motion_m_per_s = decodeMotion(parts[6]);
+    if (version >= 5) decodeSleep(parts[7], &read.guard);
     const int particles = read.options.rows * read.options.cols;
     if (read.state.particleCount() != particles) {
       throw Malformed{"state section: " + std::to_string(read.state.particleCount()) + " particles for a " +

@@ -273,6 +273,7 @@ void ClothNode::install(std::unique_ptr<core::Simulation> simulation) {
   step_cost_ms_ = 0.0;  // the old scene's cost says nothing about this one's
   timer_.setPeriod(frame_period);
   last_report_ = core::FrameReport();
+  asleep_ = false;
   reanchor();
   pushConfig();
 }
@@ -325,23 +326,27 @@ bool ClothNode::advanceFrames(int frames) {
     const bool gripped = !simulation_->grippers().empty();
     if (gripped) grippers_->beforeFrame(frameTime(simulation_->state().frame + 1));
     if (!simulation_->options().colliders.frames.empty()) frame_colliders_->beforeFrame(frameTime(simulation_->state().frame + 1));
-    last_report_ = simulation_->advanceFrame();
+    const core::FrameReport report = simulation_->advanceFrame();
+    asleep_ = report.asleep;
+    // A frame the cloth slept through computed nothing: the diagnostics keep the figures (substeps,
+    // iterations, contacts) of the last frame that was computed, whose state the cloth still is.
+    if (!report.asleep) last_report_ = report;
     if (gripped) {
-      if (last_report_.scene_reset) grippers_->synchronize();  // a recovery's reset let every gripper go
+      if (report.scene_reset) grippers_->synchronize();  // a recovery's reset let every gripper go
       grippers_->afterFrame(frameTime(simulation_->state().frame));
     }
     step_cost_ms_ =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() * kMillisecondsPerSecond;
     frame_budget_.addFrame(step_cost_ms_);
-    if (!last_report_.recovery.empty()) {
+    if (!report.recovery.empty()) {
       // Not throttled: it happens once per failing setting, and the user must see what was changed.
-      ROS_ERROR("cloth_node: recovered by itself: %s", last_report_.recovery.c_str());
-      recovery_ = last_report_.recovery;
+      ROS_ERROR("cloth_node: recovered by itself: %s", report.recovery.c_str());
+      recovery_ = report.recovery;
       pushConfig();  // the integrator and substeps may have changed: the sliders show what runs
-    } else if (!last_report_.reason.empty()) {
-      ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: %s", last_report_.reason.c_str());
+    } else if (!report.reason.empty()) {
+      ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: %s", report.reason.c_str());
     }
-    if (!last_report_.stable) {
+    if (!report.stable) {
       ++unstable_frames_;
       return false;  // the same frame would diverge again right away: leave it to the next tick
     }
@@ -485,6 +490,7 @@ void ClothNode::applyGrasp(const cloth_sim::Grasp::ConstPtr& message) {
 bool ClothNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
   cancelStep("~reset restarted the scene");
   simulation_->reset();
+  asleep_ = false;  // frame 0 is computed, not slept through
   grippers_->synchronize();  // a reset lets every gripper go
   reanchor();
   publish(ros::Time::now());
@@ -800,7 +806,8 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
     problem = std::to_string(dropped_frames_) + " frames dropped: the machine cannot keep up in real time";
   }
   if (problem.empty()) {
-    status.summary(diagnostic_msgs::DiagnosticStatus::OK, paused_ ? "paused" : "running");
+    status.summary(diagnostic_msgs::DiagnosticStatus::OK,
+                   paused_ ? "paused" : asleep_ ? "running; asleep: the cloth is at rest and nothing moves it" : "running");
   } else if (!recovery_.empty()) {
     status.summary(diagnostic_msgs::DiagnosticStatus::ERROR, problem);
   } else {
@@ -832,6 +839,8 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   status.add("solver iterations per step", static_cast<double>(last_report_.steps.solver_iterations) / steps);
   status.add("solver converged", last_report_.steps.converged);
   status.add("paused", paused_);
+  // sleep_speed: the last frame was not computed (the figures above are the last computed frame's).
+  status.add("asleep", asleep_);
   if (simulation_->options().self_collision.enabled) {
     // The last frame's self-contacts: pairs pushed apart, particles the fail-safe stopped, and pairs a pin
     // or gripper dragged through (the frame's warning names those).
@@ -897,6 +906,7 @@ bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::L
   if (new_texture) simulation_->setVertexColors(colors);
   timer_.setPeriod(ros::Duration(simulation_->options().frameDuration_s()));
   last_report_ = core::FrameReport();
+  asleep_ = false;
   reanchor();  // the loaded frame is due now: the run continues from here at the frame rate
   pushConfig();
   publish(ros::Time::now());

@@ -81,10 +81,13 @@ inline void applyOverride(const SceneOverride& entry, core::SceneOptions* scene,
 
 /// The scene file (a built-in name resolved in scenes_dir, or a path), then the overrides in order. Not yet
 /// validated: the caller may change more (--dynamic, --grid) and validates once. False with the problems in *errors.
+/// The benchmarks measure the physics: a cloth at rest is computed like any other unless an override
+/// sets sleep_speed (a scene file's own sleep_speed is overridden too).
 inline bool loadSceneWithOverrides(const std::string& scene_name, const std::string& scenes_dir,
                                    const std::vector<SceneOverride>& overrides, core::SceneOptions* scene,
                                    std::vector<std::string>* errors) {
   if (!core::loadSceneFile(core::resolveScenePath(scene_name, scenes_dir), scene, errors)) return false;
+  scene->sleep_speed_m_per_s = 0.0;
   for (const SceneOverride& entry : overrides) applyOverride(entry, scene, errors);
   return errors->empty();
 }

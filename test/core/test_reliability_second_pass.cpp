@@ -213,10 +213,18 @@ TEST(SecondPass, EveryStringOptionIsBoundedAndAStateFileCarryingALongNameIsRefus
 
 // ---- 7. `substeps: auto` comes back down ------------------------------------------------------------
 
-TEST(SecondPass, AutoSubstepsComeBackToWhatTheSceneNeedsOnceTheClothIsCalm) {
+/// The trials at fewer substeps are what these tests measure: with sleep on (the default) a cloth at rest
+/// sleeps instead and wakes at one substep (Sleep.AClothJerkedToManySubstepsSleepsAndWakesAtOne).
+SceneOptions hangingAwake(int side) {
   SceneOptions options = test::loadBuiltinScene("hanging");
-  options.rows = 10;
-  options.cols = 10;
+  options.rows = side;
+  options.cols = side;
+  options.sleep_speed_m_per_s = 0.0;
+  return options;
+}
+
+TEST(SecondPass, AutoSubstepsComeBackToWhatTheSceneNeedsOnceTheClothIsCalm) {
+  SceneOptions options = hangingAwake(10);
   ASSERT_TRUE(options.autoSubsteps());
   Simulation simulation(options);
   for (int frame = 0; frame < 100; ++frame) ASSERT_TRUE(simulation.advanceFrame().stable);
@@ -245,9 +253,7 @@ TEST(SecondPass, AutoSubstepsComeBackToWhatTheSceneNeedsOnceTheClothIsCalm) {
 }
 
 TEST(SecondPass, AfterGraspJerksStopTheSubstepsReturnToWhatTheSceneNeededWithinSeconds) {
-  SceneOptions options = test::loadBuiltinScene("hanging");
-  options.rows = 10;
-  options.cols = 10;
+  SceneOptions options = hangingAwake(10);
   Simulation simulation(options);
   for (int frame = 0; frame < 100; ++frame) ASSERT_TRUE(simulation.advanceFrame().stable);
   ASSERT_EQ(simulation.guardMemory().auto_scale, 1);
@@ -283,9 +289,7 @@ TEST(SecondPass, AfterGraspJerksStopTheSubstepsReturnToWhatTheSceneNeededWithinS
 
 TEST(SecondPass, AScaleTheClothStillNeedsIsKeptAndTheTrialFramesStayBitExactThroughAFile) {
   // A restored run tries the same frames: the trial follows the frame number, which the file holds.
-  SceneOptions options = test::loadBuiltinScene("hanging");
-  options.rows = 8;
-  options.cols = 8;
+  SceneOptions options = hangingAwake(8);
   Simulation original(options);
   for (int frame = 0; frame < 5; ++frame) original.advanceFrame();
   SimulationSnapshot jerked = original.snapshot();
@@ -311,9 +315,7 @@ TEST(SecondPass, ACalmClothSavedJustBeforeATrialFrameTriesItAfterLoadingToo) {
   // as the uninterrupted run does. Without it (an older file) the trial would not come.
   constexpr int kJerkedScale = 8;
   constexpr std::uint64_t kFramesAfter = 40;
-  SceneOptions options = test::loadBuiltinScene("hanging");
-  options.rows = 10;
-  options.cols = 10;
+  SceneOptions options = hangingAwake(10);
   Simulation original(options);
   for (int frame = 0; frame < 100; ++frame) ASSERT_TRUE(original.advanceFrame().stable);
   SimulationSnapshot jerked = original.snapshot();

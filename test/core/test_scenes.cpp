@@ -26,7 +26,10 @@ struct SceneRun {
   int unstable_frames = 0;
 };
 
-SceneRun runScene(const SceneOptions& o, int frames) {
+/// Runs the scene with sleep off: the "comes to rest" checks below measure the physics, not a sleeping cloth.
+SceneRun runScene(const SceneOptions& given, int frames) {
+  SceneOptions o = given;
+  o.sleep_speed_m_per_s = 0.0;
   Simulation sim(o);
   SceneRun run;
   for (int frame = 0; frame < frames; ++frame) {

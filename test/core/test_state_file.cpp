@@ -136,6 +136,7 @@ bool sameBits(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   check(a.integrator == b.integrator, "integrator");
   check(a.substeps == b.substeps, "substeps");
   check(a.guard_retries == b.guard_retries, "guard_retries");
+  check(sameBits(a.sleep_speed_m_per_s, b.sleep_speed_m_per_s), "sleep_speed");
   check(sameBits(a.solver.tolerance, b.solver.tolerance), "solver_tolerance");
   check(a.solver.max_iterations == b.solver.max_iterations, "solver_max_iterations");
   check(a.solver.preconditioner == b.solver.preconditioner, "solver_preconditioner");
@@ -182,7 +183,8 @@ bool sameTrack(const PoseTrack& a, const PoseTrack& b) {
 ::testing::AssertionResult sameSnapshot(const SimulationSnapshot& a, const SimulationSnapshot& b) {
   if (auto options = sameOptions(a.options, b.options); !options) return options;
   if (a.guard.auto_scale != b.guard.auto_scale || a.guard.consecutive_rollbacks != b.guard.consecutive_rollbacks ||
-      !sameBits(a.guard.frame_motion_m_per_s, b.guard.frame_motion_m_per_s)) {
+      !sameBits(a.guard.frame_motion_m_per_s, b.guard.frame_motion_m_per_s) ||
+      a.guard.calm_frames != b.guard.calm_frames || a.guard.drive_fingerprint != b.guard.drive_fingerprint) {
     return ::testing::AssertionFailure() << "guard memory differs";
   }
   const ClothState& sa = a.state;
@@ -422,6 +424,8 @@ TEST(Restore, InvalidOptionsAreRefusedByName) {
   expectRefused([](SimulationSnapshot& s) { s.guard.consecutive_rollbacks = -1; }, "guard memory");
   expectRefused([](SimulationSnapshot& s) { s.guard.frame_motion_m_per_s = std::nan(""); }, "guard memory");
   expectRefused([](SimulationSnapshot& s) { s.guard.frame_motion_m_per_s = -1.0; }, "guard memory");
+  expectRefused([](SimulationSnapshot& s) { s.guard.calm_frames = -1; }, "guard memory");
+  expectRefused([](SimulationSnapshot& s) { s.guard.calm_frames = Simulation::sleepAfterFrames(s.options) + 1; }, "guard memory");
   expectRefused([](SimulationSnapshot& s) { s.options.springs[0].stiffness_N_per_m = kNaN; }, "stiffness");
 }
 
@@ -486,6 +490,7 @@ TEST(Restore, RestoreStateChecksItsInputAndKeepsOptionsAndInputs) {
   expected.state = before.state;
   // The last frame's motion was the old state's: a state put in has not been seen moving yet.
   expected.guard.frame_motion_m_per_s = GuardMemory().frame_motion_m_per_s;
+  expected.guard.calm_frames = 0;
   ASSERT_TRUE(sim.restoreState(before.state, &error)) << error;
   EXPECT_TRUE(sameSnapshot(expected, sim.snapshot())) << "restoreState must bring back the state, inputs untouched";
 }
@@ -610,6 +615,7 @@ SceneOptions randomOptions(std::mt19937_64& random) {
   o.integrator = kAllIntegrators[random() % std::size(kAllIntegrators)];
   o.substeps = i();
   o.guard_retries = random() % 2 == 0;
+  o.sleep_speed_m_per_s = d();
   o.solver.tolerance = d();
   o.solver.max_iterations = i();
   o.solver.preconditioner = allPreconditionerKinds()[random() % allPreconditionerKinds().size()];
@@ -704,6 +710,8 @@ TEST(StateFile, RoundTripIsBitExact) {
 
 /// The CALM section (version 4 on): a tag, an 8-byte length and the last frame's motion (a double).
 constexpr std::size_t kMotionSectionBytes = 4 + 8 + 8;
+/// The SLEP section (version 5 on): a tag, an 8-byte length, the calm frames (int32) and the drive (uint64).
+constexpr std::size_t kSleepSectionBytes = 4 + 8 + 4 + 8;
 
 /// bytes, an encoded file, cut to its first `version`'s sections: the last `cut` bytes dropped.
 std::string asOlderVersion(std::string bytes, std::uint32_t version, std::size_t cut) {
@@ -713,16 +721,49 @@ std::string asOlderVersion(std::string bytes, std::uint32_t version, std::size_t
   return withChecksum(bytes);
 }
 
+/// A snapshot of a cloth that has come to rest under no drive at all: asleep.
+SimulationSnapshot sleepingSnapshot() {
+  SceneOptions options = smallHanging(IntegratorKind::kImplicitEuler);
+  options.pins.clear();
+  options.colliders.planes = {PlaneCollider{}};
+  options.origin_m = Eigen::Vector3d(0.0, 0.0, 0.001);
+  options.u_axis = Eigen::Vector3d::UnitX();
+  options.v_axis = Eigen::Vector3d::UnitY();
+  Simulation sim(options);
+  for (int k = 0; k < 200 && !sim.advanceFrame().asleep; ++k) {
+  }
+  return sim.snapshot();
+}
+
+TEST(StateFile, AVersion4FileStillLoadsAwake) {
+  SimulationSnapshot saved = sleepingSnapshot();
+  ASSERT_EQ(saved.guard.calm_frames, Simulation::sleepAfterFrames(saved.options)) << "the sheet on the floor never slept";
+  const std::string bytes = encodeStateFile(saved);
+  ASSERT_EQ(bytes.substr(bytes.size() - kSleepSectionBytes, 4), "SLEP");
+  SimulationSnapshot loaded;
+  std::string error;
+  ASSERT_TRUE(decodeStateFile(bytes, &loaded, &error)) << error;
+  EXPECT_TRUE(sameSnapshot(saved, loaded)) << "version 5 keeps the sleep count";
+  ASSERT_TRUE(decodeStateFile(asOlderVersion(bytes, 4, kSleepSectionBytes), &loaded, &error)) << error;
+  EXPECT_EQ(loaded.guard.calm_frames, 0) << "an older file's cloth must be seen at rest before it sleeps";
+  saved.guard.calm_frames = 0;
+  saved.guard.drive_fingerprint = 0;
+  EXPECT_TRUE(sameSnapshot(saved, loaded));
+}
+
 TEST(StateFile, AVersion3FileStillLoadsWithNoFrameMotionMeasured) {
   SimulationSnapshot saved = drivenSnapshot();
   ASSERT_TRUE(std::isfinite(saved.guard.frame_motion_m_per_s)) << "the driven run measured no frame";
   const std::string bytes = encodeStateFile(saved);
-  ASSERT_EQ(bytes.substr(bytes.size() - kMotionSectionBytes, 4), "CALM");
+  ASSERT_EQ(bytes.substr(bytes.size() - kSleepSectionBytes - kMotionSectionBytes, 4), "CALM");
   SimulationSnapshot loaded;
   std::string error;
-  ASSERT_TRUE(decodeStateFile(asOlderVersion(bytes, 3, kMotionSectionBytes), &loaded, &error)) << error;
+  ASSERT_TRUE(decodeStateFile(asOlderVersion(bytes, 3, kMotionSectionBytes + kSleepSectionBytes), &loaded, &error))
+      << error;
   EXPECT_TRUE(std::isinf(loaded.guard.frame_motion_m_per_s)) << "an older file's cloth must not count as calm";
   saved.guard.frame_motion_m_per_s = GuardMemory().frame_motion_m_per_s;
+  saved.guard.calm_frames = 0;
+  saved.guard.drive_fingerprint = 0;
   EXPECT_TRUE(sameSnapshot(saved, loaded));
 }
 
@@ -732,16 +773,18 @@ TEST(StateFile, AVersion2FileStillLoadsWithNoGrippersOrLinkPoses) {
   saved.inputs.frame_colliders.clear();
   saved.options.colliders.frames.clear();
   const std::string bytes = encodeStateFile(saved);
-  // Version 2 is version 4 without the last three sections: GRIP and LINK, each a tag, an 8-byte length
-  // and an 8-byte count of 0, and CALM.
+  // Version 2 is version 5 without the last four sections: GRIP and LINK, each a tag, an 8-byte length
+  // and an 8-byte count of 0, CALM and SLEP.
   constexpr std::size_t kEmptySectionBytes = 4 + 8 + 8;
-  ASSERT_EQ(bytes.substr(bytes.size() - kMotionSectionBytes - 2 * kEmptySectionBytes, 4), "GRIP");
-  ASSERT_EQ(bytes.substr(bytes.size() - kMotionSectionBytes - kEmptySectionBytes, 4), "LINK");
+  constexpr std::size_t kNewer = kSleepSectionBytes + kMotionSectionBytes;
+  ASSERT_EQ(bytes.substr(bytes.size() - kNewer - 2 * kEmptySectionBytes, 4), "GRIP");
+  ASSERT_EQ(bytes.substr(bytes.size() - kNewer - kEmptySectionBytes, 4), "LINK");
   SimulationSnapshot loaded;
   std::string error;
-  ASSERT_TRUE(decodeStateFile(asOlderVersion(bytes, 2, kMotionSectionBytes + 2 * kEmptySectionBytes), &loaded, &error))
-      << error;
+  ASSERT_TRUE(decodeStateFile(asOlderVersion(bytes, 2, kNewer + 2 * kEmptySectionBytes), &loaded, &error)) << error;
   saved.guard.frame_motion_m_per_s = GuardMemory().frame_motion_m_per_s;
+  saved.guard.calm_frames = 0;
+  saved.guard.drive_fingerprint = 0;
   EXPECT_TRUE(sameSnapshot(saved, loaded));
 }
 
@@ -895,11 +938,12 @@ TEST(StateFile, SizesOfOrdinarySnapshots) {
     snapshot.inputs.pin_travel_m.setZero(3, 2);
     const std::size_t size = encodeStateFile(snapshot).size();
     std::printf("[ size       ] hanging %dx%d: %zu bytes\n", side, side, size);
-    // Header, 7 section headers (tag + length), options text, state, inputs, guard memory (2 x int32),
-    // grippers and frame colliders (a count of 0 each), the last frame's motion (a double).
-    EXPECT_EQ(size, StateFileFormat::kHeaderBytes + 7 * 12 + sceneYaml(snapshot.options).size() +
+    // Header, 8 section headers (tag + length), options text, state, inputs, guard memory (2 x int32),
+    // grippers and frame colliders (a count of 0 each), the last frame's motion (a double), the calm
+    // frames and the drive (an int32 and a uint64).
+    EXPECT_EQ(size, StateFileFormat::kHeaderBytes + 8 * 12 + sceneYaml(snapshot.options).size() +
                         (8 + 8 + 8 + 48 * static_cast<std::size_t>(side * side)) + (24 + 8 + 2 * 4 + 2 * 48 + 8) + 8 +
-                        8 + 8 + 8);
+                        8 + 8 + 8 + (4 + 8));
   }
 }
 

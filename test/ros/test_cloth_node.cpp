@@ -88,6 +88,18 @@ double distance(const geometry_msgs::Point& a, const geometry_msgs::Point& b) {
   return std::sqrt((a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y) + (a.z - b.z) * (a.z - b.z));
 }
 
+/// A ~grasp GRAB of `particle` towards `target` (world frame) with a spring of `stiffness` N/m.
+cloth_sim::Grasp grabMessage(std::uint32_t id, int particle, const geometry_msgs::Point& target, double stiffness) {
+  cloth_sim::Grasp grab;
+  grab.header.frame_id = "world";
+  grab.id = id;
+  grab.action = cloth_sim::Grasp::GRAB;
+  grab.particle = particle;
+  grab.target = target;
+  grab.stiffness = stiffness;
+  return grab;
+}
+
 /// Bit-for-bit comparison of positions and velocities; reports the first difference.
 ::testing::AssertionResult sameBits(const ClothState& a, const ClothState& b) {
   if (a.positions.size() != b.positions.size() || a.velocities.size() != b.velocities.size()) {
@@ -378,13 +390,7 @@ TEST_F(NodeTest, GraspReachesTargetAndReleaseLetsItFall) {
   constexpr double kTolerance_m = 0.02;
   ros::Publisher grasp_pub = nh_.advertise<cloth_sim::Grasp>(nodeTopic("grasp"), 10);
   ASSERT_TRUE(waitForSubscribers(grasp_pub, 1, 10.0));
-  cloth_sim::Grasp grab;
-  grab.header.frame_id = "world";
-  grab.id = 1;
-  grab.action = cloth_sim::Grasp::GRAB;
-  grab.particle = particle;
-  grab.target = target;
-  grab.stiffness = kStiffness_N_per_m;
+  const cloth_sim::Grasp grab = grabMessage(1, particle, target, kStiffness_N_per_m);
   const std::uint64_t since = states_->count();
   grasp_pub.publish(grab);
   const auto reached = states_->waitFor(
@@ -937,6 +943,57 @@ TEST_F(NodeTest, DiagnosticsReportTheSimulation) {
   EXPECT_TRUE(std::isfinite(cost_ms) && cost_ms > 0.0) << cost_ms;
   EXPECT_TRUE(std::isfinite(real_time_factor) && real_time_factor > 0.0) << real_time_factor;
   EXPECT_TRUE(std::isfinite(strain) && strain >= 0.0 && strain < 0.5) << strain;
+}
+
+// ---- 11b. A cloth at rest sleeps, and a grasp wakes it (services.test) ----------------------------
+
+TEST_F(NodeTest, AClothAtRestSleepsAndAGraspWakesIt) {
+  Monitor<diagnostic_msgs::DiagnosticArray> diagnostics(nh_, "/diagnostics");
+  ASSERT_NO_FATAL_FAILURE(freshScene(false));
+  const std::string name = nodeName().substr(1) + ": simulation";
+  const auto asleepIs = [&](const char* value) {
+    return [&name, value](const diagnostic_msgs::DiagnosticArray& array) {
+      for (const auto& status : array.status) {
+        if (status.name != name) continue;
+        for (const auto& kv : status.values) {
+          if (kv.key == "asleep") return kv.value == value;
+        }
+      }
+      return false;
+    };
+  };
+  // The hanging cloth swings out its start within a few seconds and then sleeps (sleep_speed's default).
+  const auto asleep = diagnostics.waitFor(asleepIs("True"), 40.0, diagnostics.count());
+  ASSERT_TRUE(asleep) << "the hanging cloth never slept";
+  // Asleep: ~state keeps coming, frame after frame, with the same positions (bit for bit, but for the frame
+  // computed once a second to check the cloth is still at rest: it moves less than sleep_speed, 1e-4 m/s,
+  // over 0.02 s there) and the substeps the cloth was last computed with.
+  const auto first = states_->waitForNext(5.0, states_->count());
+  ASSERT_TRUE(first);
+  const auto later = states_->waitFor([&](const ClothState& s) { return s.frame >= first->frame + 10; }, 5.0,
+                                      states_->count());
+  ASSERT_TRUE(later) << "~state stopped while the cloth slept";
+  double moved_m = 0.0;
+  for (std::size_t i = 0; i < first->positions.size(); ++i) {
+    moved_m = std::max(moved_m, distance(first->positions[i], later->positions[i]));
+  }
+  EXPECT_LT(moved_m, 2e-6) << "a sleeping cloth moved";
+  EXPECT_GE(later->substeps, 1u);
+  // A grasp wakes it: the corner follows the hand, and the diagnostics say it is awake.
+  const int particle = static_cast<int>((kHangingRows - 1) * kHangingCols);  // bottom-left corner, free
+  ros::Publisher grasp_pub = nh_.advertise<cloth_sim::Grasp>(nodeTopic("grasp"), 10);
+  ASSERT_TRUE(waitForSubscribers(grasp_pub, 1, 10.0));
+  geometry_msgs::Point target = later->positions[particle];
+  target.y += 0.2;
+  const cloth_sim::Grasp grab = grabMessage(3, particle, target, 500.0);
+  const std::uint64_t since = states_->count();
+  const std::uint64_t diagnostics_since = diagnostics.count();
+  grasp_pub.publish(grab);
+  const auto moved = states_->waitFor(
+      [&](const ClothState& s) { return distance(s.positions[particle], later->positions[particle]) > 0.05; }, 10.0,
+      since);
+  EXPECT_TRUE(moved) << "the grasp did not wake the cloth";
+  EXPECT_TRUE(diagnostics.waitFor(asleepIs("False"), 5.0, diagnostics_since)) << "awake, the diagnostics said asleep";
 }
 
 // ---- 7. Ball scene: the sphere's tf frame moves (ball.test) ---------------------------------------

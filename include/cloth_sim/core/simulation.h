@@ -75,6 +75,10 @@ struct FrameReport {
   SelfCollisionStats self_collision;
   StepReport steps;       ///< the integrator's work summed over the accepted computation's substeps
   double max_strain = 0.0;  ///< largest structural stretch (|d| - L) / L after the frame
+  /// The cloth slept through the frame (SceneOptions::sleep_speed_m_per_s): nothing was computed, the
+  /// state is the last frame's with time and frame number advanced; substeps_used and steps are 0, and
+  /// contacts and self_collision are empty.
+  bool asleep = false;
 };
 
 class Simulation {
@@ -83,6 +87,17 @@ class Simulation {
   static constexpr double kDivergenceBound_m = StabilityGuard::kDivergenceBound_m;
   /// Structural stretch above this is reported as a warning (the cloth is over-stretched).
   static constexpr double kStrainWarning = 0.5;
+  /// A body moving slower than this (m/s) holds still as far as sleep goes: tf interpolating between two
+  /// equal transforms, or a pose sent again, may differ from the last in its last bits, which must not
+  /// keep a cloth awake (1 nm/s: 1 um in a quarter of an hour).
+  static constexpr double kHeldStillSpeed_m_per_s = 1e-9;
+  /// Frames the cloth must stay calm before it sleeps: SceneOptions::kSleepAfter_s at the frame rate (at
+  /// least 1).
+  static int sleepAfterFrames(const SceneOptions& options);
+  /// A sleeping cloth is computed on the frames whose number is a multiple of this
+  /// (SceneOptions::kSleepCheckPeriod_s at the frame rate).
+  static int sleepCheckFrames(const SceneOptions& options);
+
   /// A grasp target further than this from the origin (m) is refused.
   static constexpr double kMaxGraspReach_m = 1000.0;
   static constexpr double kMaxGraspForce_N = 1e4;
@@ -184,8 +199,8 @@ class Simulation {
   /// against.
   double totalEnergy_J(const EnergyReport& energies) const;
   double maxStructuralStrain() const;
-  /// Substeps the last frame was computed with (with `auto`, what the guard chose; before the first
-  /// frame, what the first would take).
+  /// Substeps the last computed frame was computed with (with `auto`, what the guard chose; before the
+  /// first frame, what the first would take). A frame slept through leaves it as it was.
   int lastFrameSubsteps() const { return last_substeps_; }
   /// What `auto` remembers between frames (part of a snapshot: a restored run chooses the same substeps).
   const GuardMemory& guardMemory() const { return memory_; }
@@ -241,6 +256,19 @@ class Simulation {
   void rememberFrame(const FrameReport& report, int first_substeps, int auto_scale);
   /// After repeated rollbacks: implicit Euler with auto substeps, or the initial state. Always true.
   bool recover(const FrameEnvelope& envelope, FrameReport* report);
+  /// Whether anything moves the cloth over the coming frame by itself: a hook, sphere, gripper or frame
+  /// collider moving faster than kHeldStillSpeed_m_per_s, or a gusting wind.
+  bool isDriven() const;
+  /// A fingerprint of the inputs and the wind switch: a grab or drag, a release, a new wind, a gripper
+  /// attached, detached or slipping, a link first seen change it. Not the bodies' poses: a body that moves
+  /// drives the cloth (isDriven), and one that holds still must not wake it by its rounding.
+  std::uint64_t driveFingerprint() const;
+  /// Whether the cloth sleeps through the coming frame: sleep_speed is on, the last sleepAfterFrames
+  /// frames were calm, nothing drives it or changed since, and it is not a frame the sleeping cloth is
+  /// checked on (sleepCheckFrames).
+  bool sleepsThrough(bool driven, std::uint64_t drive) const;
+  /// Advances time and frame number over a frame the cloth sleeps through; *report says so.
+  void sleepThroughFrame(FrameReport* report);
   /// Runs one frame in the given number of substeps from the current state; adds the integrator's work
   /// to *steps.
   ContactStats integrateFrame(int substeps, StepReport* steps, SelfCollisionStats* self_collision);

@@ -108,6 +108,12 @@ struct GuardMemory {
   /// positions, not velocities: a layer resting on another on the floor carries the upper layer's weight
   /// as a velocity the floor takes off every step, and a folded towel at rest never looked calm by it.
   double frame_motion_m_per_s = std::numeric_limits<double>::infinity();
+  /// Frames in a row computed while nothing drove the cloth and no particle moved faster than the
+  /// options' sleep_speed, up to Simulation::sleepAfterFrames(): from there on the cloth sleeps.
+  int calm_frames = 0;
+  /// What drove the last frame (Simulation's fingerprint of the inputs): a frame that starts with another
+  /// one is computed, and counts as calm only from the next frame on.
+  std::uint64_t drive_fingerprint = 0;
   /// Largest auto_scale: a frame that needs more than 64x the predicted substeps is not a prediction problem.
   static constexpr int kMaxScale = 1 << 6;
   /// Frames (by number) on which a scale above 1 is tried at half: 16 frames, 0.32 s at 50 Hz, so the

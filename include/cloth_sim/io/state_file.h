@@ -20,7 +20,8 @@ struct StateFileFormat {
   /// the guard's memory (GARD); a version 1 file restores with a fresh one. Version 3 added the grippers
   /// (GRIP) and the frame colliders' tracks (LINK); older files restore with none. Version 4 added the
   /// last frame's motion (CALM), which `auto` substeps read; older files restore with none measured.
-  static constexpr std::uint32_t kVersion = 4;
+  /// Version 5 added the sleep count and the drive it was counted under (SLEP); older files restore awake.
+  static constexpr std::uint32_t kVersion = 5;
   /// Written in the writer's byte order: read back as 0x04030201 on a machine of the other order.
   static constexpr std::uint32_t kByteOrderMark = 0x01020304;
   static constexpr std::size_t kHeaderBytes = 32;

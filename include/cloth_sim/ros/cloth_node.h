@@ -227,7 +227,8 @@ class ClothNode {
   bool anchored_ = false;
 
   // For diagnostics, since the last diagnostics update.
-  core::FrameReport last_report_;
+  core::FrameReport last_report_;  ///< the last frame computed (a frame slept through leaves it)
+  bool asleep_ = false;            ///< the last frame was slept through (SceneOptions::sleep_speed_m_per_s)
   double step_cost_ms_ = 0.0;  ///< wall time of the last frame, ms
   int unstable_frames_ = 0;
   /// What the simulation did to recover from repeated rollbacks in this diagnostics window (empty: none).
