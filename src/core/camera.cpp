@@ -1,18 +1,19 @@
 #include "cloth_sim/core/camera.h"
 
+#include "cloth_sim/core/enum_names.h"
+
 namespace cloth_sim::core {
 
-const char* depthNoiseName(DepthNoise noise) { return noise == DepthNoise::kKinect ? "kinect" : "none"; }
+namespace {
+
+constexpr EnumNames<DepthNoise, 2> kDepthNoiseNames{{{DepthNoise::kNone, "none"}, {DepthNoise::kKinect, "kinect"}}};
+
+}  // namespace
+
+const char* depthNoiseName(DepthNoise noise) { return enumName(kDepthNoiseNames, noise); }
 
 bool parseDepthNoiseName(const std::string& name, DepthNoise* noise) {
-  if (name == "none") {
-    *noise = DepthNoise::kNone;
-  } else if (name == "kinect") {
-    *noise = DepthNoise::kKinect;
-  } else {
-    return false;
-  }
-  return true;
+  return parseEnumName(kDepthNoiseNames, name, noise);
 }
 
 }  // namespace cloth_sim::core

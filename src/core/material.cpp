@@ -1,5 +1,7 @@
 #include "cloth_sim/core/material.h"
 
+#include "cloth_sim/core/enum_names.h"
+
 #include <cmath>
 #include <sstream>
 
@@ -25,34 +27,22 @@ constexpr double kBendSpringMomentFactor = 4.5;
 /// particles before it), each stretched over 2h: they add 4 k_b to the sheet's tensile stiffness.
 constexpr double kBendSpringsInStretch = 4.0;
 
+constexpr EnumNames<BendModel, 2> kBendModelNames{{{BendModel::kSprings, "springs"}, {BendModel::kCurvature, "curvature"}}};
+constexpr EnumNames<CompressionModel, 2> kCompressionModelNames{
+    {{CompressionModel::kLinear, "linear"}, {CompressionModel::kBuckling, "buckling"}}};
+
 }  // namespace
 
-const char* bendModelName(BendModel model) { return model == BendModel::kCurvature ? "curvature" : "springs"; }
-
-const char* compressionModelName(CompressionModel model) {
-  return model == CompressionModel::kBuckling ? "buckling" : "linear";
-}
-
-bool parseCompressionModelName(const std::string& name, CompressionModel* model) {
-  if (name == "linear") {
-    *model = CompressionModel::kLinear;
-  } else if (name == "buckling") {
-    *model = CompressionModel::kBuckling;
-  } else {
-    return false;
-  }
-  return true;
-}
+const char* bendModelName(BendModel model) { return enumName(kBendModelNames, model); }
 
 bool parseBendModelName(const std::string& name, BendModel* model) {
-  if (name == "springs") {
-    *model = BendModel::kSprings;
-  } else if (name == "curvature") {
-    *model = BendModel::kCurvature;
-  } else {
-    return false;
-  }
-  return true;
+  return parseEnumName(kBendModelNames, name, model);
+}
+
+const char* compressionModelName(CompressionModel model) { return enumName(kCompressionModelNames, model); }
+
+bool parseCompressionModelName(const std::string& name, CompressionModel* model) {
+  return parseEnumName(kCompressionModelNames, name, model);
 }
 
 const std::vector<MaterialOptions>& materialPresets() {

@@ -86,7 +86,9 @@ class Fingerprint {
   }
   /// A count, as 64 bits whatever the platform's size_t (the fingerprint is in the state file).
   void addCount(std::size_t count) { add(static_cast<std::uint64_t>(count)); }
-  void addMatrix(const Eigen::MatrixXd& values) {
+  /// Its shape and its values (any plain matrix: no copy on the per-frame path).
+  template <typename Derived>
+  void addMatrix(const Eigen::PlainObjectBase<Derived>& values) {
     addCount(static_cast<std::size_t>(values.rows()));
     addCount(static_cast<std::size_t>(values.cols()));
     add(values.data(), sizeof(double) * static_cast<std::size_t>(values.size()));
