@@ -1,5 +1,7 @@
 #include "cloth_sim/core/stencil.h"
 
+#include "vector_clones.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -23,18 +25,8 @@ ColumnRange springColumns(int rows, int cols, const StencilFamily& family, int r
 inline double inverseLength(double length_m) { return length_m > kStencilDegenerateLength_m ? 1.0 / length_m : 0.0; }
 
 // The per-row loops take every array as a __restrict function parameter, shifted to the row's first
-// spring: GCC 12 vectorises them in that form (and not with __restrict locals).
-//
-// Each is compiled three times, for AVX-512, for AVX2 and for the x86-64 baseline (SSE2), and the loader
-// picks the widest the processor runs (GCC's target_clones, an ifunc): the package keeps building for
-// every x86-64 machine and still uses 4 or 8 lanes where they exist. With -ffp-contract=off (CMakeLists)
-// every clone rounds exactly like the others, so the results are the same bits on every machine.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define CLOTH_SIM_VECTOR_CLONES __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
-#else
-#define CLOTH_SIM_VECTOR_CLONES
-#endif
-
+// spring: GCC 12 vectorises them in that form (and not with __restrict locals), once per SIMD width
+// (vector_clones.h).
 CLOTH_SIM_VECTOR_CLONES void springForceRow(int count, int offset, double ks, double kd, double rest, double cap,
                                             const double* __restrict px, const double* __restrict py,
                                             const double* __restrict pz, const double* __restrict vx,
