@@ -122,7 +122,8 @@ namespace {
 
 /// Adds row buffer `spring` (springs starting at row r, columns range.first..) to the first ends (if row r
 /// is in the band) and `sign_second` times it to the second ends (if row r + dr is in the band).
-void applyRow(int cols, int row, ColumnRange range, int offset, int row_begin, int row_end, int dr, int arrays,
+/// sign_second is 1 or -1, so every clone adds the same bits.
+CLOTH_SIM_VECTOR_CLONES void applyRow(int cols, int row, ColumnRange range, int offset, int row_begin, int row_end, int dr, int arrays,
               const double* const* spring, double* const* out, double sign_second) {
   const int count = range.last - range.first;
   const std::ptrdiff_t first = static_cast<std::ptrdiff_t>(row) * cols + range.first;
