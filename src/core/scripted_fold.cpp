@@ -1,5 +1,7 @@
 #include "cloth_sim/core/scripted_fold.h"
 
+#include "cloth_sim/core/constants.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -7,7 +9,6 @@ namespace cloth_sim::core {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 
 double smoothstep(double u) {
   const double c = std::clamp(u, 0.0, 1.0);
