@@ -84,8 +84,8 @@ inline double farSum(const double* row, std::ptrdiff_t row_step, const double* v
 
 /// Solves L L^T y = v in place for each lane (v's entry (dof i, lane) at i * kLanes + lane).
 CLOTH_SIM_VECTOR_CLONES void bandedSolve(int dofs, const double* __restrict band, double* __restrict v) {
-  constexpr std::ptrdiff_t kRowStep = kLanes;                   // band(i, k) to band(i, k + 1)
-  constexpr std::ptrdiff_t kColumnStep = (kBandWidth + 1) * kLanes;  // band(i, 0) to band(i + 1, 1): L(i + 1, i)
+  constexpr std::ptrdiff_t kRowStep = kLanes;  // band(i, k) to band(i, k + 1)
+  constexpr std::ptrdiff_t kColumnStep = (kBandWidth + 1) * kLanes;  // band(i, 0) to band(i + 1, 1), L(i + 1, i)
   double value[kLanes];
   for (int i = 0; i < dofs; ++i) {
     const double* row = band + static_cast<std::ptrdiff_t>(i) * kBandWidth * kLanes;
