@@ -1,7 +1,8 @@
 #include "cloth_sim/core/multigrid.h"
 
+#include "cloth_sim/core/banded_lines.h"
+
 #include "parallel.h"
-#include "vector_clones.h"
 
 #include <algorithm>
 #include <cmath>
@@ -19,112 +20,15 @@ inline int fullStencilIndex(int dr, int dc) {
   return (dr + GridBlockMatrix::kMaxReach) * width + dc + GridBlockMatrix::kMaxReach;
 }
 
-/// Half-bandwidth, in dofs, of one line's own couplings: a particle reaches kMaxReach particles along it.
-constexpr int kLineBand = 3 * GridBlockMatrix::kMaxReach + 2;
-constexpr int kBandWidth = kLineBand + 1;
-
 /// Entry (a, b) of a symmetric block stored as xx, yy, zz, xy, xz, yz.
 inline double blockEntry(const double* block, int a, int b) {
   static constexpr int kIndex[3][3] = {{0, 3, 4}, {3, 1, 5}, {4, 5, 2}};
   return block[kIndex[a][b]];
 }
 
-/// Lines factored and solved side by side, one per SIMD lane: a line's solve is a chain in which each dof
-/// waits for the one before it, so one line at a time left the processor waiting on that chain; eight
-/// lines run the same chain in one vector. Entry (dof i, k, lane) of a group's bands sits at
-/// ((i * kBandWidth + k) * kLanes + lane); a group's lanes past the last line hold identity lines.
-constexpr int kLanes = 8;
-
-/// In place, for each lane: band(i, k) = A(i, i - k) becomes the Cholesky factor's L(i, i - k), except on
-/// the diagonal, which holds 1 / L(i, i) (the solves then multiply: a division's latency sits on their
-/// critical path). Every lane does the same operations in the same order as a line on its own would.
-CLOTH_SIM_VECTOR_CLONES void bandedCholesky(int dofs, double* __restrict band) {
-  // Right-looking: once column j is final it updates the band below it. Every update of one column is
-  // independent of the others, so none waits for the previous one (a left-looking dot product put a
-  // chain of eight dependent subtractions on every entry).
-  for (int j = 0; j < dofs; ++j) {
-    double* row_j = band + static_cast<std::ptrdiff_t>(j) * kBandWidth * kLanes;
-    for (int lane = 0; lane < kLanes; ++lane) {
-      // Positive for a positive definite line (every line of M + PSD terms is); guarded against rounding.
-      const double diagonal = row_j[lane];
-      row_j[lane] = diagonal > 0.0 ? 1.0 / std::sqrt(diagonal) : 1.0;
-    }
-    const int last = j + kLineBand < dofs ? j + kLineBand : dofs - 1;
-    double column[kBandWidth * kLanes];
-    for (int i = j + 1; i <= last; ++i) {
-      double* entry = band + (static_cast<std::ptrdiff_t>(i) * kBandWidth + (i - j)) * kLanes;
-      for (int lane = 0; lane < kLanes; ++lane) {
-        entry[lane] *= row_j[lane];
-        column[(i - j) * kLanes + lane] = entry[lane];
-      }
-    }
-    for (int i = j + 1; i <= last; ++i) {
-      double* row_i = band + static_cast<std::ptrdiff_t>(i) * kBandWidth * kLanes;
-      const double* l_ij = column + (i - j) * kLanes;
-      for (int m = j + 1; m <= i; ++m) {  // A(i, m) -= L(i, j) L(m, j)
-        double* target = row_i + (i - m) * kLanes;
-        const double* l_mj = column + (m - j) * kLanes;
-        for (int lane = 0; lane < kLanes; ++lane) target[lane] -= l_ij[lane] * l_mj[lane];
-      }
-    }
-  }
-}
-
-/// The sum of row[k * row_step] * v[-k * v_step] over k = 2..kLineBand as a tree: none of it waits for
-/// v[-v_step], which the previous dof has just computed, so only one product and two subtractions per dof
-/// stay on the solve's critical path (a left-to-right sum put all eight there). A fixed order: the same
-/// bits every time.
-static_assert(kLineBand == 8, "farSum is written out for a band of 8");
-inline double farSum(const double* row, std::ptrdiff_t row_step, const double* v, std::ptrdiff_t v_step) {
-  return ((row[8 * row_step] * v[-8 * v_step] + row[7 * row_step] * v[-7 * v_step]) +
-          (row[6 * row_step] * v[-6 * v_step] + row[5 * row_step] * v[-5 * v_step])) +
-         ((row[4 * row_step] * v[-4 * v_step] + row[3 * row_step] * v[-3 * v_step]) +
-          row[2 * row_step] * v[-2 * v_step]);
-}
-
-/// Solves L L^T y = v in place for each lane (v's entry (dof i, lane) at i * kLanes + lane).
-CLOTH_SIM_VECTOR_CLONES void bandedSolve(int dofs, const double* __restrict band, double* __restrict v) {
-  constexpr std::ptrdiff_t kRowStep = kLanes;  // band(i, k) to band(i, k + 1)
-  constexpr std::ptrdiff_t kColumnStep = (kBandWidth + 1) * kLanes;  // band(i, 0) to band(i + 1, 1), L(i + 1, i)
-  double value[kLanes];
-  for (int i = 0; i < dofs; ++i) {
-    const double* row = band + static_cast<std::ptrdiff_t>(i) * kBandWidth * kLanes;
-    double* v_i = v + static_cast<std::ptrdiff_t>(i) * kLanes;
-    if (i >= kLineBand) {
-      for (int lane = 0; lane < kLanes; ++lane) {
-        v_i[lane] = (v_i[lane] - farSum(row + lane, kRowStep, v_i + lane, kLanes) -
-                     row[kRowStep + lane] * v_i[lane - kLanes]) *
-                    row[lane];
-      }
-      continue;
-    }
-    for (int lane = 0; lane < kLanes; ++lane) value[lane] = v_i[lane];
-    for (int k = i; k >= 1; --k) {
-      for (int lane = 0; lane < kLanes; ++lane) value[lane] -= row[k * kRowStep + lane] * v_i[lane - k * kLanes];
-    }
-    for (int lane = 0; lane < kLanes; ++lane) v_i[lane] = value[lane] * row[lane];
-  }
-  // L^T: row i of L^T holds L(i + k, i), band(i + k, k): kColumnStep apart from band(i, 0).
-  for (int i = dofs - 1; i >= 0; --i) {
-    const int reach = dofs - 1 - i < kLineBand ? dofs - 1 - i : kLineBand;
-    const double* column = band + static_cast<std::ptrdiff_t>(i) * kBandWidth * kLanes;
-    double* v_i = v + static_cast<std::ptrdiff_t>(i) * kLanes;
-    if (reach == kLineBand) {
-      // farSum reads row[k * row_step] * v[-k * v_step]: with v_step -kLanes it reads v's dof i + k.
-      for (int lane = 0; lane < kLanes; ++lane) {
-        v_i[lane] = (v_i[lane] - farSum(column + lane, kColumnStep, v_i + lane, -kLanes) -
-                     column[kColumnStep + lane] * v_i[lane + kLanes]) *
-                    column[lane];
-      }
-      continue;
-    }
-    for (int lane = 0; lane < kLanes; ++lane) value[lane] = v_i[lane];
-    for (int k = reach; k >= 1; --k) {
-      for (int lane = 0; lane < kLanes; ++lane) value[lane] -= column[k * kColumnStep + lane] * v_i[lane + k * kLanes];
-    }
-    for (int lane = 0; lane < kLanes; ++lane) v_i[lane] = value[lane] * column[lane];
-  }
-}
+using banded_lines::entry;
+using banded_lines::kBandWidth;
+using banded_lines::kLanes;
 
 /// Groups of kLanes lines that cover `lines`.
 inline int laneGroups(int lines) { return (lines + kLanes - 1) / kLanes; }
@@ -152,12 +56,11 @@ void MultigridPreconditioner::factorLines(Level& level, bool rows) const {
       const int p = r * a.cols() + col;
       const int line = rows ? r : col;
       const int t = rows ? col : r;
-      // This line's lane of its group: entry (dof, k) at (dof * kBandWidth + k) * kLanes.
-      double* band = factors.data() + (line / kLanes) * group_size + line % kLanes;
-      double* dof_rows = band + static_cast<std::ptrdiff_t>(3 * t) * kBandWidth * kLanes;
+      double* band = factors.data() + (line / kLanes) * group_size;  // this line's group
+      const int lane = line % kLanes;
       // The band starts zero, so only the nonzero entries are written.
       if (level.free[p] == 0.0) {  // a fixed dof: decoupled, identity
-        for (int i = 0; i < 3; ++i) dof_rows[i * kBandWidth * kLanes] = 1.0;
+        for (int i = 0; i < 3; ++i) band[entry(3 * t + i, 0, lane)] = 1.0;
         continue;
       }
       for (int d = 0; d <= GridBlockMatrix::kMaxReach && d <= t; ++d) {
@@ -169,20 +72,18 @@ void MultigridPreconditioner::factorLines(Level& level, bool rows) const {
           // A(3t + i, 3(t - d) + j) sits k = 3d + i - j below the diagonal; the upper triangle of the
           // diagonal block (j > i when d = 0) is not stored.
           const int last_j = d == 0 ? i : 2;
-          for (int j = 0; j <= last_j; ++j) {
-            dof_rows[(i * kBandWidth + 3 * d + i - j) * kLanes] = blockEntry(block, i, j);
-          }
+          for (int j = 0; j <= last_j; ++j) band[entry(3 * t + i, 3 * d + i - j, lane)] = blockEntry(block, i, j);
         }
       }
     }
   }
   // The last group's lanes past the last line: identity lines, which factor and solve to nothing.
   for (int line = lines; line < groups * kLanes; ++line) {
-    double* band = factors.data() + (line / kLanes) * group_size + line % kLanes;
-    for (int dof = 0; dof < dofs; ++dof) band[static_cast<std::ptrdiff_t>(dof) * kBandWidth * kLanes] = 1.0;
+    double* band = factors.data() + (line / kLanes) * group_size;
+    for (int dof = 0; dof < dofs; ++dof) band[entry(dof, 0, line % kLanes)] = 1.0;
   }
 #pragma omp parallel for schedule(static) num_threads(threads_) if (runsInParallel(n, threads_))
-  for (int group = 0; group < groups; ++group) bandedCholesky(dofs, factors.data() + group * group_size);
+  for (int group = 0; group < groups; ++group) banded_lines::factor(dofs, factors.data() + group * group_size);
 }
 
 void MultigridPreconditioner::smoothLines(int level, bool rows, bool from_zero) {
@@ -220,7 +121,7 @@ void MultigridPreconditioner::smoothLines(int level, bool rows, bool from_zero) 
         }
       }
     }
-    bandedSolve(dofs, factors.data() + group * group_size, v);
+    banded_lines::solve(dofs, factors.data() + group * group_size, v);
     for (int t = 0; t < length; ++t) {
       const double* v_t = v + static_cast<std::ptrdiff_t>(3 * t) * kLanes;
       for (int lane = 0; lane < count; ++lane) {

@@ -9,7 +9,6 @@ namespace cloth_sim::core {
 
 namespace {
 
-
 double smoothstep(double u) {
   const double c = std::clamp(u, 0.0, 1.0);
   return c * c * (3.0 - 2.0 * c);

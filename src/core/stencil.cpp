@@ -120,25 +120,24 @@ CLOTH_SIM_VECTOR_CLONES void blockRow(int count, int offset, double ks, double k
 
 namespace {
 
+/// target[i] += sign * value[i] for `count` entries. sign is 1 or -1, so every clone adds the same bits
+/// (as a plain add would).
+CLOTH_SIM_VECTOR_CLONES void addSignedRow(int count, double sign, const double* __restrict value,
+                                          double* __restrict target) {
+  for (int i = 0; i < count; ++i) target[i] += sign * value[i];
+}
+
 /// Adds row buffer `spring` (springs starting at row r, columns range.first..) to the first ends (if row r
 /// is in the band) and `sign_second` times it to the second ends (if row r + dr is in the band).
-/// sign_second is 1 or -1, so every clone adds the same bits.
-CLOTH_SIM_VECTOR_CLONES void applyRow(int cols, int row, ColumnRange range, int offset, int row_begin, int row_end, int dr, int arrays,
+void applyRow(int cols, int row, ColumnRange range, int offset, int row_begin, int row_end, int dr, int arrays,
               const double* const* spring, double* const* out, double sign_second) {
   const int count = range.last - range.first;
   const std::ptrdiff_t first = static_cast<std::ptrdiff_t>(row) * cols + range.first;
   const bool first_in_band = row >= row_begin;
   const bool second_in_band = row + dr >= row_begin && row + dr < row_end;
   for (int a = 0; a < arrays; ++a) {
-    const double* __restrict value = spring[a];
-    if (first_in_band) {
-      double* __restrict target = out[a] + first;
-      for (int i = 0; i < count; ++i) target[i] += value[i];
-    }
-    if (second_in_band) {
-      double* __restrict target = out[a] + first + offset;
-      for (int i = 0; i < count; ++i) target[i] += sign_second * value[i];
-    }
+    if (first_in_band) addSignedRow(count, 1.0, spring[a], out[a] + first);
+    if (second_in_band) addSignedRow(count, sign_second, spring[a], out[a] + first + offset);
   }
 }
 
