@@ -1,5 +1,6 @@
 #include "cloth_sim/core/material.h"
 
+#include "cloth_sim/core/constants.h"
 #include "cloth_sim/core/enum_names.h"
 
 #include <cmath>
@@ -103,7 +104,7 @@ MaterialConstants materialConstants(const MaterialOptions& m, BendModel bend_mod
   constants.springs[static_cast<int>(SpringKind::kStructural)] = {
       true, c11 - G - kBendSpringsInStretch * bend.stiffness_N_per_m, 0.0};
   for (SpringOptions& spring : constants.springs) spring.damping_N_s_per_m = m.damping_s * spring.stiffness_N_per_m;
-  constexpr double kPiSquared = 9.8696044010893586;
+  constexpr double kPiSquared = kPi * kPi;
   constants.structural_buckling_N_m3 = kPiSquared * m.bending_rigidity_N_m * du_m * dv_m;
   constants.shear_buckling_N_m3 = 0.5 * constants.structural_buckling_N_m3;
   return constants;

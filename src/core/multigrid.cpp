@@ -1,5 +1,7 @@
 #include "cloth_sim/core/multigrid.h"
 
+#include "cloth_sim/core/banded_lines.h"
+
 #include "parallel.h"
 
 #include <algorithm>
@@ -18,80 +20,18 @@ inline int fullStencilIndex(int dr, int dc) {
   return (dr + GridBlockMatrix::kMaxReach) * width + dc + GridBlockMatrix::kMaxReach;
 }
 
-/// Half-bandwidth, in dofs, of one line's own couplings: a particle reaches kMaxReach particles along it.
-constexpr int kLineBand = 3 * GridBlockMatrix::kMaxReach + 2;
-constexpr int kBandWidth = kLineBand + 1;
-
 /// Entry (a, b) of a symmetric block stored as xx, yy, zz, xy, xz, yz.
 inline double blockEntry(const double* block, int a, int b) {
   static constexpr int kIndex[3][3] = {{0, 3, 4}, {3, 1, 5}, {4, 5, 2}};
   return block[kIndex[a][b]];
 }
 
-/// In place: band[i * kBandWidth + k] = A(i, i - k) becomes the Cholesky factor's L(i, i - k), except on
-/// the diagonal, which holds 1 / L(i, i) (the solves then multiply: a division's latency sits on their
-/// critical path).
-void bandedCholesky(int dofs, double* band) {
-  // Right-looking: once column j is final it updates the band below it. Every update of one column is
-  // independent of the others, so none waits for the previous one (a left-looking dot product put a
-  // chain of eight dependent subtractions on every entry).
-  for (int j = 0; j < dofs; ++j) {
-    double* row_j = band + static_cast<std::ptrdiff_t>(j) * kBandWidth;
-    const double diagonal = row_j[0];
-    // Positive for a positive definite line (every line of M + PSD terms is); guarded against rounding.
-    const double inverse = diagonal > 0.0 ? 1.0 / std::sqrt(diagonal) : 1.0;
-    row_j[0] = inverse;
-    const int last = j + kLineBand < dofs ? j + kLineBand : dofs - 1;
-    double column[kBandWidth];
-    for (int i = j + 1; i <= last; ++i) {
-      double* entry = band + static_cast<std::ptrdiff_t>(i) * kBandWidth + (i - j);
-      *entry *= inverse;
-      column[i - j] = *entry;
-    }
-    for (int i = j + 1; i <= last; ++i) {
-      double* row_i = band + static_cast<std::ptrdiff_t>(i) * kBandWidth;
-      const double l_ij = column[i - j];
-      for (int m = j + 1; m <= i; ++m) row_i[i - m] -= l_ij * column[m - j];  // A(i, m) -= L(i, j) L(m, j)
-    }
-  }
-}
+using banded_lines::entry;
+using banded_lines::kBandWidth;
+using banded_lines::kLanes;
 
-/// The sum of row[k] * v[-k] over k = 2..kLineBand as a tree: none of it waits for v[-1], which the
-/// previous dof has just computed, so only one product and two subtractions per dof stay on the solve's
-/// critical path (a left-to-right sum put all eight there). A fixed order: the same bits every time.
-static_assert(kLineBand == 8, "farSum is written out for a band of 8");
-inline double farSum(const double* row, const double* v, int step) {
-  return ((row[8] * v[-8 * step] + row[7] * v[-7 * step]) + (row[6] * v[-6 * step] + row[5] * v[-5 * step])) +
-         ((row[4] * v[-4 * step] + row[3] * v[-3 * step]) + row[2] * v[-2 * step]);
-}
-
-/// Solves L L^T y = v in place.
-void bandedSolve(int dofs, const double* band, double* v) {
-  for (int i = 0; i < dofs; ++i) {
-    const double* row = band + static_cast<std::ptrdiff_t>(i) * kBandWidth;
-    if (i >= kLineBand) {
-      v[i] = (v[i] - farSum(row, v + i, 1) - row[1] * v[i - 1]) * row[0];
-      continue;
-    }
-    double value = v[i];
-    for (int k = i; k >= 1; --k) value -= row[k] * v[i - k];
-    v[i] = value * row[0];
-  }
-  // L^T: row i of L^T holds L(i + k, i), column k of band row i + k.
-  double column[kBandWidth];
-  for (int i = dofs - 1; i >= 0; --i) {
-    const int reach = dofs - 1 - i < kLineBand ? dofs - 1 - i : kLineBand;
-    if (reach == kLineBand) {
-      for (int k = 1; k <= kLineBand; ++k) column[k] = band[static_cast<std::ptrdiff_t>(i + k) * kBandWidth + k];
-      // farSum reads row[k] * v[-k * step]: with step -1 it reads v[i + k].
-      v[i] = (v[i] - farSum(column, v + i, -1) - column[1] * v[i + 1]) * band[static_cast<std::ptrdiff_t>(i) * kBandWidth];
-      continue;
-    }
-    double value = v[i];
-    for (int k = reach; k >= 1; --k) value -= band[static_cast<std::ptrdiff_t>(i + k) * kBandWidth + k] * v[i + k];
-    v[i] = value * band[static_cast<std::ptrdiff_t>(i) * kBandWidth];
-  }
-}
+/// Groups of kLanes lines that cover `lines`.
+inline int laneGroups(int lines) { return (lines + kLanes - 1) / kLanes; }
 
 }  // namespace
 
@@ -100,25 +40,27 @@ void MultigridPreconditioner::factorLines(Level& level, bool rows) const {
   const int lines = rows ? a.rows() : a.cols();
   const int length = rows ? a.cols() : a.rows();
   const int dofs = 3 * length;
+  const int groups = laneGroups(lines);
+  const std::ptrdiff_t group_size = static_cast<std::ptrdiff_t>(dofs) * kBandWidth * kLanes;
   std::vector<double>& factors = rows ? level.row_factors : level.col_factors;
-  factors.assign(static_cast<std::size_t>(lines) * dofs * kBandWidth, 0.0);
+  factors.assign(static_cast<std::size_t>(groups * group_size), 0.0);
   int along[GridBlockMatrix::kMaxReach + 1];
   for (int d = 0; d <= GridBlockMatrix::kMaxReach; ++d) along[d] = rows ? a.offsetIndex(0, -d) : a.offsetIndex(-d, 0);
   const int n = a.particles();
   // The bands are filled walking the particles in memory order (a column's particles lie a whole grid
   // row of blocks apart: reading them column by column missed the cache on nearly every block), then
-  // factored line by line. The fill only copies, so its order does not change any bits.
+  // factored a group of lines at a time. The fill only copies, so its order does not change any bits.
 #pragma omp parallel for schedule(static) num_threads(threads_) if (runsInParallel(n, threads_))
   for (int r = 0; r < a.rows(); ++r) {
     for (int col = 0; col < a.cols(); ++col) {
       const int p = r * a.cols() + col;
       const int line = rows ? r : col;
       const int t = rows ? col : r;
-      double* band = factors.data() + static_cast<std::ptrdiff_t>(line) * dofs * kBandWidth;
-      double* dof_rows = band + static_cast<std::ptrdiff_t>(3 * t) * kBandWidth;
+      double* band = factors.data() + (line / kLanes) * group_size;  // this line's group
+      const int lane = line % kLanes;
       // The band starts zero, so only the nonzero entries are written.
       if (level.free[p] == 0.0) {  // a fixed dof: decoupled, identity
-        for (int i = 0; i < 3; ++i) dof_rows[i * kBandWidth] = 1.0;
+        for (int i = 0; i < 3; ++i) band[entry(3 * t + i, 0, lane)] = 1.0;
         continue;
       }
       for (int d = 0; d <= GridBlockMatrix::kMaxReach && d <= t; ++d) {
@@ -130,15 +72,18 @@ void MultigridPreconditioner::factorLines(Level& level, bool rows) const {
           // A(3t + i, 3(t - d) + j) sits k = 3d + i - j below the diagonal; the upper triangle of the
           // diagonal block (j > i when d = 0) is not stored.
           const int last_j = d == 0 ? i : 2;
-          for (int j = 0; j <= last_j; ++j) dof_rows[i * kBandWidth + 3 * d + i - j] = blockEntry(block, i, j);
+          for (int j = 0; j <= last_j; ++j) band[entry(3 * t + i, 3 * d + i - j, lane)] = blockEntry(block, i, j);
         }
       }
     }
   }
-#pragma omp parallel for schedule(static) num_threads(threads_) if (runsInParallel(n, threads_))
-  for (int line = 0; line < lines; ++line) {
-    bandedCholesky(dofs, factors.data() + static_cast<std::ptrdiff_t>(line) * dofs * kBandWidth);
+  // The last group's lanes past the last line: identity lines, which factor and solve to nothing.
+  for (int line = lines; line < groups * kLanes; ++line) {
+    double* band = factors.data() + (line / kLanes) * group_size;
+    for (int dof = 0; dof < dofs; ++dof) band[entry(dof, 0, line % kLanes)] = 1.0;
   }
+#pragma omp parallel for schedule(static) num_threads(threads_) if (runsInParallel(n, threads_))
+  for (int group = 0; group < groups; ++group) banded_lines::factor(dofs, factors.data() + group * group_size);
 }
 
 void MultigridPreconditioner::smoothLines(int level, bool rows, bool from_zero) {
@@ -147,6 +92,7 @@ void MultigridPreconditioner::smoothLines(int level, bool rows, bool from_zero) 
   const int lines = rows ? a.rows() : a.cols();
   const int length = rows ? a.cols() : a.rows();
   const int dofs = 3 * length;
+  const int groups = laneGroups(lines);
   const int n = a.particles();
   if (from_zero) {
     l.solution.setZero();  // A 0 = 0: the residual is the right-hand side, no product
@@ -154,22 +100,34 @@ void MultigridPreconditioner::smoothLines(int level, bool rows, bool from_zero) 
     product(level, l.solution, l.residual);
   }
   const std::vector<double>& factors = rows ? l.row_factors : l.col_factors;
-  l.line_scratch.resize(3, n);
+  const std::ptrdiff_t group_size = static_cast<std::ptrdiff_t>(dofs) * kBandWidth * kLanes;
+  l.line_scratch.resize(static_cast<std::size_t>(groups) * dofs * kLanes);
 #pragma omp parallel for schedule(static) num_threads(threads_) if (runsInParallel(n, threads_))
-  for (int line = 0; line < lines; ++line) {
-    double* v = l.line_scratch.data() + static_cast<std::ptrdiff_t>(line) * dofs;
+  for (int group = 0; group < groups; ++group) {
+    // The group's right-hand sides, dof by dof with its lines side by side (v(dof, lane)).
+    double* v = l.line_scratch.data() + static_cast<std::ptrdiff_t>(group) * dofs * kLanes;
+    const int first = group * kLanes;
+    const int count = std::min(kLanes, lines - first);
     for (int t = 0; t < length; ++t) {
-      const int p = rows ? line * a.cols() + t : t * a.cols() + line;
-      if (from_zero) {
-        for (int i = 0; i < 3; ++i) v[3 * t + i] = l.free[p] * l.rhs(i, p);
-      } else {
-        for (int i = 0; i < 3; ++i) v[3 * t + i] = l.free[p] * (l.rhs(i, p) - l.residual(i, p));
+      double* v_t = v + static_cast<std::ptrdiff_t>(3 * t) * kLanes;
+      for (int lane = 0; lane < kLanes; ++lane) {
+        if (lane >= count) {
+          for (int i = 0; i < 3; ++i) v_t[i * kLanes + lane] = 0.0;
+          continue;
+        }
+        const int p = rows ? (first + lane) * a.cols() + t : t * a.cols() + first + lane;
+        for (int i = 0; i < 3; ++i) {
+          v_t[i * kLanes + lane] = from_zero ? l.free[p] * l.rhs(i, p) : l.free[p] * (l.rhs(i, p) - l.residual(i, p));
+        }
       }
     }
-    bandedSolve(dofs, factors.data() + static_cast<std::ptrdiff_t>(line) * dofs * kBandWidth, v);
+    banded_lines::solve(dofs, factors.data() + group * group_size, v);
     for (int t = 0; t < length; ++t) {
-      const int p = rows ? line * a.cols() + t : t * a.cols() + line;
-      for (int i = 0; i < 3; ++i) l.solution(i, p) += kLineSmootherWeight * l.free[p] * v[3 * t + i];
+      const double* v_t = v + static_cast<std::ptrdiff_t>(3 * t) * kLanes;
+      for (int lane = 0; lane < count; ++lane) {
+        const int p = rows ? (first + lane) * a.cols() + t : t * a.cols() + first + lane;
+        for (int i = 0; i < 3; ++i) l.solution(i, p) += kLineSmootherWeight * l.free[p] * v_t[i * kLanes + lane];
+      }
     }
   }
 }

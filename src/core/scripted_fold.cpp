@@ -1,13 +1,13 @@
 #include "cloth_sim/core/scripted_fold.h"
 
+#include "cloth_sim/core/constants.h"
+
 #include <algorithm>
 #include <cmath>
 
 namespace cloth_sim::core {
 
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 double smoothstep(double u) {
   const double c = std::clamp(u, 0.0, 1.0);

@@ -1,5 +1,7 @@
 #include "cloth_sim/core/stencil.h"
 
+#include "vector_clones.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -23,18 +25,8 @@ ColumnRange springColumns(int rows, int cols, const StencilFamily& family, int r
 inline double inverseLength(double length_m) { return length_m > kStencilDegenerateLength_m ? 1.0 / length_m : 0.0; }
 
 // The per-row loops take every array as a __restrict function parameter, shifted to the row's first
-// spring: GCC 12 vectorises them in that form (and not with __restrict locals).
-//
-// Each is compiled three times, for AVX-512, for AVX2 and for the x86-64 baseline (SSE2), and the loader
-// picks the widest the processor runs (GCC's target_clones, an ifunc): the package keeps building for
-// every x86-64 machine and still uses 4 or 8 lanes where they exist. With -ffp-contract=off (CMakeLists)
-// every clone rounds exactly like the others, so the results are the same bits on every machine.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define CLOTH_SIM_VECTOR_CLONES __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
-#else
-#define CLOTH_SIM_VECTOR_CLONES
-#endif
-
+// spring: GCC 12 vectorises them in that form (and not with __restrict locals), once per SIMD width
+// (vector_clones.h).
 CLOTH_SIM_VECTOR_CLONES void springForceRow(int count, int offset, double ks, double kd, double rest, double cap,
                                             const double* __restrict px, const double* __restrict py,
                                             const double* __restrict pz, const double* __restrict vx,
@@ -128,6 +120,13 @@ CLOTH_SIM_VECTOR_CLONES void blockRow(int count, int offset, double ks, double k
 
 namespace {
 
+/// target[i] += sign * value[i] for `count` entries. sign is 1 or -1, so every clone adds the same bits
+/// (as a plain add would).
+CLOTH_SIM_VECTOR_CLONES void addSignedRow(int count, double sign, const double* __restrict value,
+                                          double* __restrict target) {
+  for (int i = 0; i < count; ++i) target[i] += sign * value[i];
+}
+
 /// Adds row buffer `spring` (springs starting at row r, columns range.first..) to the first ends (if row r
 /// is in the band) and `sign_second` times it to the second ends (if row r + dr is in the band).
 void applyRow(int cols, int row, ColumnRange range, int offset, int row_begin, int row_end, int dr, int arrays,
@@ -137,15 +136,8 @@ void applyRow(int cols, int row, ColumnRange range, int offset, int row_begin, i
   const bool first_in_band = row >= row_begin;
   const bool second_in_band = row + dr >= row_begin && row + dr < row_end;
   for (int a = 0; a < arrays; ++a) {
-    const double* __restrict value = spring[a];
-    if (first_in_band) {
-      double* __restrict target = out[a] + first;
-      for (int i = 0; i < count; ++i) target[i] += value[i];
-    }
-    if (second_in_band) {
-      double* __restrict target = out[a] + first + offset;
-      for (int i = 0; i < count; ++i) target[i] += sign_second * value[i];
-    }
+    if (first_in_band) addSignedRow(count, 1.0, spring[a], out[a] + first);
+    if (second_in_band) addSignedRow(count, sign_second, spring[a], out[a] + first + offset);
   }
 }
 

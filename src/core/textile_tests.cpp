@@ -1,5 +1,6 @@
 #include "cloth_sim/core/textile_tests.h"
 
+#include "cloth_sim/core/constants.h"
 #include "cloth_sim/core/simulation.h"
 
 #include <algorithm>
@@ -253,7 +254,6 @@ namespace {
 /// The hem's distance from centre_m (xy plane) in kFoldBins angular bins: the farthest hem particle in
 /// each, empty bins filled from their neighbours.
 std::vector<double> hemProfile(const ClothGrid& grid, const Eigen::Matrix3Xd& positions_m, const Eigen::Vector2d& centre_m) {
-  constexpr double kTwoPi = 2.0 * 3.14159265358979323846;
   std::vector<double> reach(kFoldBins, -1.0);
   for (int r = 0; r < grid.rows; ++r) {
     for (int c = 0; c < grid.cols; ++c) {
@@ -284,7 +284,6 @@ std::vector<double> hemProfile(const ClothGrid& grid, const Eigen::Matrix3Xd& po
 
 /// Amplitude of wave number n in a profile, m.
 double harmonicAmplitude(const std::vector<double>& profile, int n) {
-  constexpr double kPi = 3.14159265358979323846;
   double re = 0.0;
   double im = 0.0;
   for (int i = 0; i < kFoldBins; ++i) {
@@ -335,7 +334,6 @@ CusickMeasurement runCusick(const SceneOptions& scene, double seconds) {
     if (grid.isActive(p)) motion_m = std::max(motion_m, (measurement.positions_m.col(p) - second_before.col(p)).norm());
   }
   measurement.last_second_motion_m = motion_m;
-  constexpr double kPi = 3.14159265358979323846;
   const double support_m2 = kPi * 0.25 * kCusickSupportDiameter_m * kCusickSupportDiameter_m;
   const double specimen_m2 = kPi * 0.25 * kCusickSpecimenDiameter_m * kCusickSpecimenDiameter_m;
   measurement.projected_area_m2 = projectedArea_m2(grid.triangles, measurement.positions_m, kCusickPixel_m);

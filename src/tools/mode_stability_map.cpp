@@ -2,6 +2,7 @@
 // stiffness and mass, measured beside the single-mode theory (accuracy.h) for the grid's highest mode.
 #include "accuracy_modes.h"
 
+#include "cloth_sim/core/constants.h"
 #include "cloth_sim/core/force_model.h"
 #include "cloth_sim/core/simulation.h"
 #include "cloth_sim/core/state.h"
@@ -43,8 +44,6 @@ constexpr int kPowerIterations = 300;
 /// Implicit Euler's solve in the stability map: converged, so that the map shows the method, not the cap.
 constexpr double kStabilitySolverTolerance = 1e-10;
 constexpr int kStabilitySolverIterations = 1000;
-
-constexpr double kPi = 3.14159265358979323846;
 
 /// The highest mode of the cloth linearised at rest: omega^2 = w'Kw / w'Mw and its damping rate w'Cw / w'Mw, by
 /// power iteration on M^-1 K (K and C from the force model's differential: the real stiffness, not a formula).
@@ -98,7 +97,7 @@ bool stableAt(core::Simulation& sim, core::IntegratorKind kind, double omega, do
   }
   state.velocities_m_per_s.setZero();
   const double initial_m = rmsDistance(state.positions_m, rest);
-  const double period_s = 2.0 * kPi / omega;
+  const double period_s = core::kTwoPi / omega;
   const int steps = std::clamp(static_cast<int>(std::ceil(kStabilityPeriods * period_s / step_s)), kMinStabilitySteps,
                                kMaxStabilitySteps);
   for (int k = 0; k < steps; ++k) {

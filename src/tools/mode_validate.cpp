@@ -2,6 +2,7 @@
 
 #include "bench_common.h"
 
+#include "cloth_sim/core/constants.h"
 #include "cloth_sim/core/material.h"
 #include "cloth_sim/core/simulation.h"
 #include "cloth_sim/core/textile_tests.h"
@@ -45,7 +46,7 @@ constexpr int kCantileverMaxFrames = 3000;
 /// The hanging sheet: one-second implicit steps bring its stretch to rest in a few frames.
 constexpr int kHangingFrames = 30;
 constexpr double kDefaultDrapeSeconds = 8.0;
-constexpr double kRadToDeg = 180.0 / 3.14159265358979323846;
+constexpr double kRadToDeg = 180.0 / core::kPi;
 
 struct ValidateOptions {
   std::string test;

@@ -1,4 +1,5 @@
 // Paper §4: the contact band, the collision response and penetration correction.
+#include "cloth_sim/core/constants.h"
 #include "cloth_sim/core/simulation.h"
 
 #include "scene_test_util.h"
@@ -10,7 +11,6 @@
 namespace cloth_sim::core {
 namespace {
 
-constexpr double kPi = 3.141592653589793;
 constexpr double kGravity_m_per_s2 = 9.81;
 
 /// Four free particles (a 2 x 2 grid with every spring off): each one is an independent point mass.

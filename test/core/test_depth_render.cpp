@@ -1,5 +1,6 @@
 // The depth renderer against closed forms: a plane's depth along every pixel's ray, the pixel count of a
 // projected rectangle, a fold's hidden layer, colliders, ranges, noise statistics and determinism.
+#include "cloth_sim/core/constants.h"
 #include "cloth_sim/core/depth_render.h"
 #include "cloth_sim/core/grid.h"
 
@@ -13,7 +14,6 @@ namespace cloth_sim::core {
 namespace {
 
 constexpr double kDepthTolerance_m = 1e-3;  // the 1 mm
-constexpr double kPi = 3.14159265358979323846;
 
 PinholeCamera vgaCamera() {
   CameraOptions options;  // 640 x 480, fx = fy = 525, centre (319.5, 239.5), 0.3 to 10 m

@@ -1,4 +1,5 @@
 // Paper §3 and §5: wind (both models), air damping, grasps and moving pins.
+#include "cloth_sim/core/constants.h"
 #include "cloth_sim/core/forces.h"
 #include "cloth_sim/core/simulation.h"
 #include "scene_test_util.h"
@@ -9,8 +10,6 @@
 
 namespace cloth_sim::core {
 namespace {
-
-constexpr double kTwoPi = 6.283185307179586;
 
 /// One triangle (0,0,0), (1,0,0), (0,1,1): unit normal (0,-1,1)/sqrt(2), area sqrt(2)/2 m^2.
 Eigen::Matrix3Xd tiltedTriangle() {

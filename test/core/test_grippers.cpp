@@ -1,6 +1,7 @@
 // Grippers (issue 14): particles carried rigidly by a moving, turning frame in every integrator, the
 // wrench the cloth exerts on the gripper against the statics of a hanging cloth, slipping, detaching,
 // catching up with a frame that leaps, and every refusal with its reason.
+#include "cloth_sim/core/constants.h"
 #include "cloth_sim/core/grippers.h"
 #include "cloth_sim/core/simulation.h"
 
@@ -17,8 +18,6 @@ namespace cloth_sim::core {
 namespace {
 
 using test::loadBuiltinScene;
-
-constexpr double kPi = 3.14159265358979323846;
 
 /// The hanging scene (1 m square, 0.5 kg, vertical in the x-z plane) at rows x cols with no pins: only
 /// grippers hold it.

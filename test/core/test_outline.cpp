@@ -1,6 +1,7 @@
 // Issue 17, section 3: non-rectangular outlines. Particles outside are removed with their springs and
 // triangles (they stay in the arrays, frozen where they started); the mass, the curvature term and the
 // contacts follow; and the Cusick drape test, which needs a disc, measures something physical with them.
+#include "cloth_sim/core/constants.h"
 #include "cloth_sim/core/mesh_check.h"
 #include "cloth_sim/core/simulation.h"
 #include "cloth_sim/core/textile_tests.h"
@@ -103,7 +104,7 @@ TEST(Outline, AMaterialDiscWeighsItsAreaAndItsImplicitSystemIsConsistent) {
   for (int p = 0; p < grid.particleCount(); ++p) inside_kg += grid.isActive(p) ? simulation.massPerParticle_kg()[p] : 0.0;
   const double kept_m2 = static_cast<double>(grid.triangles.size() / 3) * 0.5 * (1.0 / 24) * (1.0 / 24);
   EXPECT_NEAR(inside_kg, scene.material.areal_density_kg_per_m2 * kept_m2, 1e-12);
-  EXPECT_NEAR(kept_m2, 3.14159265358979 * 0.25, 0.15 * 3.14159265358979 * 0.25);
+  EXPECT_NEAR(kept_m2, kPi * 0.25, 0.15 * kPi * 0.25);
   // The assembled matrix (multigrid) equals the matrix-free product with springs and curvature masked.
   ClothForceModel& model = simulation.forceModel();
   const Eigen::Matrix3Xd x = grid.rest_positions_m + 0.01 * Eigen::Matrix3Xd::Random(3, grid.particleCount());

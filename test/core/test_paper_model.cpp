@@ -1,5 +1,6 @@
 // Paper §2.3: what each spring kind is for. Without shear springs a cloth hung from one point collapses
 // into a rope; without bend springs a cloth dropped on the floor crumples.
+#include "cloth_sim/core/constants.h"
 #include "cloth_sim/core/simulation.h"
 
 #include <gtest/gtest.h>
@@ -8,8 +9,6 @@
 
 namespace cloth_sim::core {
 namespace {
-
-constexpr double kPi = 3.141592653589793;
 
 /// Largest horizontal (x-y) distance between any two particles, m: the width of a hanging cloth seen
 /// from above.

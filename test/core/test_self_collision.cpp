@@ -1,6 +1,7 @@
 // Self-collision (issue 15): the cloth never passes through itself. Every scenario is checked frame by
 // frame with the independent mesh checker (mesh_check.h: triangle pairs that share no particle and where
 // an edge of one passes through the other), itself tested on hand-made sheets in test_mesh_check.cpp.
+#include "cloth_sim/core/constants.h"
 #include "cloth_sim/core/mesh_check.h"
 #include "cloth_sim/core/scripted_fold.h"
 #include "cloth_sim/core/self_collision.h"
@@ -364,16 +365,15 @@ ULayer uShapedCloth(int rows, int cols, double bend_m, const Eigen::Vector3d& up
   o.self_collision.friction = 0.5;
   o.integrator = integrator;
   o.substeps = SceneOptions::kAutoSubsteps;
-  const double pi = 3.14159265358979323846;
-  const double flat_m = 0.5 * (o.height_m - pi * bend_m);
+  const double flat_m = 0.5 * (o.height_m - kPi * bend_m);
   u.state.positions_m.resize(3, rows * cols);
   u.state.velocities_m_per_s.setZero(3, rows * cols);
   for (int r = 0; r < rows; ++r) {
     const double s = r * spacing;  // arc length along the cloth
     Eigen::Vector2d yz(s, 0.0);
     bool upper = false;
-    if (s > flat_m + pi * bend_m) {
-      yz << flat_m - (s - flat_m - pi * bend_m), 2.0 * bend_m;
+    if (s > flat_m + kPi * bend_m) {
+      yz << flat_m - (s - flat_m - kPi * bend_m), 2.0 * bend_m;
       upper = true;
     } else if (s > flat_m) {
       const double angle = (s - flat_m) / bend_m;
@@ -481,7 +481,6 @@ TEST(SelfCollisionTwist, AStripTwistedByTwoHandsTurningOppositeWaysNeverPassesIt
                        grid.index(o.rows - 1, o.cols - 1)};
   const double turns = 1.0;
   const double duration_s = 3.0;
-  const double pi = 3.14159265358979323846;
   const double exempt_m = SelfCollision::kExemptRestThicknesses * selfCollisionThickness_m(o.self_collision, grid);
   int worst_far = 0;
   int worst_all = 0;
@@ -490,7 +489,7 @@ TEST(SelfCollisionTwist, AStripTwistedByTwoHandsTurningOppositeWaysNeverPassesIt
     for (int k = 0; k < 4; ++k) {
       const bool first_end = k < 2;
       const Eigen::Vector3d rest = grid.rest_positions_m.col(held[k]);
-      const double angle = (first_end ? 1.0 : -1.0) * 2.0 * pi * turns * t;
+      const double angle = (first_end ? 1.0 : -1.0) * 2.0 * kPi * turns * t;
       const double end_y = rest.y() * (1.0 - 0.2 * t);  // the hands come 20 % closer
       const Eigen::Vector3d axis_point(0.0, end_y, 0.5);
       const Eigen::Vector3d arm(rest.x(), 0.0, 0.0);

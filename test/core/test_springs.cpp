@@ -1,4 +1,5 @@
 // Foundation claims of the core: springs, gravity and pins behave as hand calculations say.
+#include "cloth_sim/core/constants.h"
 #include "cloth_sim/core/simulation.h"
 #include "scene_test_util.h"
 
@@ -8,8 +9,6 @@
 
 namespace cloth_sim::core {
 namespace {
-
-constexpr double kPi = 3.141592653589793;
 
 /// Forces only from the given spring kinds: no gravity, damping, pins or colliders.
 SceneOptions springOnlyOptions(int rows, int cols) {

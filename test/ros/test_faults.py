@@ -26,8 +26,9 @@ EXIT_S = 10.0    # a node told to stop is gone (its shutdown watchdog allows a f
 TOOL_S = 30.0    # one rosservice / rostopic run
 POLL_S = 0.1
 # A cloth whose frames take long enough for a ~step to be running when the signal comes.
-# sleep_speed 0: these steps must be long; a cloth that slept through them (sleep_speed) would finish them
-# before the signal came (seen once in three runs of the drape at 64x64 paused at frame 14).
+# sleep_speed 0: these steps must be long. The nodes here run the `hanging` scene, whose sheet at 64x64
+# comes to rest and sleeps about 1.1 s of simulated time after its start; a step begun near frame 20
+# then finished its 1,000-2,000 frames in under 2 s, before the signal came.
 MID_GRID = ["_rows:=64", "_cols:=64", "_sleep_speed:=0"]
 # One frame of this takes about 20 s here (a 512x512 rk4 frame is the uninterruptible one).
 HUGE_FRAME = ["_rows:=512", "_cols:=512", "_integrator:=rk4", "_substeps:=20"]

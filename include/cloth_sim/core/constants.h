@@ -5,7 +5,8 @@
 
 namespace cloth_sim::core {
 
-constexpr double kTwoPi = 6.283185307179586;  ///< one turn, rad: periodic motions use sin(kTwoPi t / T)
+constexpr double kPi = 3.14159265358979323846;  ///< half a turn, rad
+constexpr double kTwoPi = 2.0 * kPi;  ///< one turn, rad: periodic motions use sin(kTwoPi t / T)
 
 /// sin(2 pi t / T): the one periodic motion that pins, spheres and gusts share (times an amplitude).
 inline double periodicSine(double time_s, double period_s) { return std::sin(kTwoPi * time_s / period_s); }

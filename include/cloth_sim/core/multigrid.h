@@ -66,10 +66,10 @@ class MultigridPreconditioner final : public Preconditioner {
     Axis row_axis, col_axis;                                  ///< transfer to the next coarser level
     Eigen::Matrix3Xd rhs, solution;
     Eigen::Matrix3Xd residual;  ///< scratch: A solution (the residual is formed where it is read)
-    /// Banded Cholesky factors of every row's and every column's own couplings, line after line
-    /// (the line smoother), and a scratch field in line order.
+    /// Banded Cholesky factors of every row's and every column's own couplings (the line smoother), in
+    /// groups of lines solved side by side, and the right-hand sides in the same order (multigrid.cpp).
     std::vector<double> row_factors, col_factors;
-    Eigen::Matrix3Xd line_scratch;
+    std::vector<double> line_scratch;
   };
 
   static Axis makeAxis(int fine);

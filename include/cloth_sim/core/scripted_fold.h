@@ -9,6 +9,7 @@
 // they hold there a moment (following the corners, should the fold drag them further), then let go.
 #pragma once
 
+#include "cloth_sim/core/constants.h"
 #include "cloth_sim/core/grid.h"
 #include "cloth_sim/core/simulation.h"
 
@@ -29,7 +30,7 @@ struct ScriptedFold {
   /// loop, a half circle of diameter h, takes pi h / 2 of the cloth's length. Set down exactly over the
   /// first row, the moved half had no length left for the loop, and the fold line's springs were held at
   /// 60 % strain. Where the fold has dragged the corners in further, the hands stop over them.
-  static constexpr double kLoopThicknesses = 1.5707963267948966;
+  static constexpr double kLoopThicknesses = kPi / 2.0;
   /// Grasp ids the script uses (first hand, second hand).
   static constexpr std::uint32_t kFirstGraspId = 7001;
 

@@ -3,6 +3,7 @@
 // and its tests share. ROS-free; cloth_bench --validate runs them at full size, the gtests at small size.
 #pragma once
 
+#include "cloth_sim/core/constants.h"
 #include "cloth_sim/core/material.h"
 #include "cloth_sim/core/options.h"
 
@@ -16,7 +17,7 @@ namespace cloth_sim::core {
 inline constexpr double kCantileverStripWidth_m = 0.025;
 /// ASTM D1388's incline, rad (41.5 degrees): the overhang at which the tip touches it is twice the
 /// bending length.
-inline constexpr double kCantileverInclineAngle_rad = 41.5 * 3.14159265358979323846 / 180.0;
+inline constexpr double kCantileverInclineAngle_rad = 41.5 * kPi / 180.0;
 
 /// The heavy elastica: an inextensible strip of length l, clamped horizontally, bending under its own
 /// weight w per area (N/m^2) with rigidity B (N m): B theta'' = -w (l - s) cos(theta), theta(0) = 0,
