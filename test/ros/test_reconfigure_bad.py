@@ -107,6 +107,10 @@ class ReconfigureRefusals(unittest.TestCase):
         self.assertEqual(ranges["structural_stiffness"], (0.0, 1e7))
         self.assertEqual(ranges["wind_x"], (-100.0, 100.0))
         self.assertEqual(ranges["substeps"], (0, 10000))  # 0: auto
+        # The defaults clients read are the README's (a scene that names neither: implicit_euler, auto).
+        defaults = {d["name"]: d["default"] for d in self.client.get_parameter_descriptions(timeout=TIMEOUT_S)}
+        self.assertEqual(defaults["integrator"], "implicit_euler")
+        self.assertEqual(defaults["substeps"], 0)
 
 
 if __name__ == "__main__":
