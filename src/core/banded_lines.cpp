@@ -27,7 +27,7 @@ CLOTH_SIM_VECTOR_CLONES void factor(int dofs, double* __restrict band) {
   // independent of the others, so none waits for the previous one (a left-looking dot product put a
   // chain of eight dependent subtractions on every entry).
   for (int j = 0; j < dofs; ++j) {
-    double* row_j = band + static_cast<std::ptrdiff_t>(j) * kBandWidth * kLanes;
+    double* row_j = band + entry(j, 0, 0);
     for (int lane = 0; lane < kLanes; ++lane) {
       // Positive for a positive definite line (every line of M + PSD terms is); guarded against rounding.
       const double diagonal = row_j[lane];
@@ -43,7 +43,7 @@ CLOTH_SIM_VECTOR_CLONES void factor(int dofs, double* __restrict band) {
       }
     }
     for (int i = j + 1; i <= last; ++i) {
-      double* row_i = band + static_cast<std::ptrdiff_t>(i) * kBandWidth * kLanes;
+      double* row_i = band + entry(i, 0, 0);
       const double* l_ij = column + (i - j) * kLanes;
       for (int m = j + 1; m <= i; ++m) {  // A(i, m) -= L(i, j) L(m, j)
         double* target = row_i + (i - m) * kLanes;
@@ -59,7 +59,7 @@ CLOTH_SIM_VECTOR_CLONES void solve(int dofs, const double* __restrict band, doub
   constexpr std::ptrdiff_t kColumnStep = (kBandWidth + 1) * kLanes;  // band(i, 0) to band(i + 1, 1), L(i + 1, i)
   double value[kLanes];
   for (int i = 0; i < dofs; ++i) {
-    const double* row = band + static_cast<std::ptrdiff_t>(i) * kBandWidth * kLanes;
+    const double* row = band + entry(i, 0, 0);
     double* v_i = v + static_cast<std::ptrdiff_t>(i) * kLanes;
     if (i >= kLineBand) {
       for (int lane = 0; lane < kLanes; ++lane) {
@@ -78,7 +78,7 @@ CLOTH_SIM_VECTOR_CLONES void solve(int dofs, const double* __restrict band, doub
   // L^T: row i of L^T holds L(i + k, i), band(i + k, k): kColumnStep apart from band(i, 0).
   for (int i = dofs - 1; i >= 0; --i) {
     const int reach = dofs - 1 - i < kLineBand ? dofs - 1 - i : kLineBand;
-    const double* column = band + static_cast<std::ptrdiff_t>(i) * kBandWidth * kLanes;
+    const double* column = band + entry(i, 0, 0);
     double* v_i = v + static_cast<std::ptrdiff_t>(i) * kLanes;
     if (reach == kLineBand) {
       // farSum reads row[k * row_step] * v[-k * v_step]: with v_step -kLanes it reads v's dof i + k.

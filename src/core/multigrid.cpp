@@ -27,11 +27,12 @@ inline double blockEntry(const double* block, int a, int b) {
 }
 
 using banded_lines::entry;
-using banded_lines::kBandWidth;
+using banded_lines::groupSize;
 using banded_lines::kLanes;
+using banded_lines::laneGroups;
 
-/// Groups of kLanes lines that cover `lines`.
-inline int laneGroups(int lines) { return (lines + kLanes - 1) / kLanes; }
+/// Particle index of position t along line `line` of a rows x cols grid (a row's or a column's).
+inline int lineParticle(bool rows, int cols, int line, int t) { return rows ? line * cols + t : t * cols + line; }
 
 }  // namespace
 
@@ -41,7 +42,7 @@ void MultigridPreconditioner::factorLines(Level& level, bool rows) const {
   const int length = rows ? a.cols() : a.rows();
   const int dofs = 3 * length;
   const int groups = laneGroups(lines);
-  const std::ptrdiff_t group_size = static_cast<std::ptrdiff_t>(dofs) * kBandWidth * kLanes;
+  const std::ptrdiff_t group_size = groupSize(dofs);
   std::vector<double>& factors = rows ? level.row_factors : level.col_factors;
   factors.assign(static_cast<std::size_t>(groups * group_size), 0.0);
   int along[GridBlockMatrix::kMaxReach + 1];
@@ -100,7 +101,7 @@ void MultigridPreconditioner::smoothLines(int level, bool rows, bool from_zero) 
     product(level, l.solution, l.residual);
   }
   const std::vector<double>& factors = rows ? l.row_factors : l.col_factors;
-  const std::ptrdiff_t group_size = static_cast<std::ptrdiff_t>(dofs) * kBandWidth * kLanes;
+  const std::ptrdiff_t group_size = groupSize(dofs);
   l.line_scratch.resize(static_cast<std::size_t>(groups) * dofs * kLanes);
 #pragma omp parallel for schedule(static) num_threads(threads_) if (runsInParallel(n, threads_))
   for (int group = 0; group < groups; ++group) {
@@ -115,7 +116,7 @@ void MultigridPreconditioner::smoothLines(int level, bool rows, bool from_zero) 
           for (int i = 0; i < 3; ++i) v_t[i * kLanes + lane] = 0.0;
           continue;
         }
-        const int p = rows ? (first + lane) * a.cols() + t : t * a.cols() + first + lane;
+        const int p = lineParticle(rows, a.cols(), first + lane, t);
         for (int i = 0; i < 3; ++i) {
           v_t[i * kLanes + lane] = from_zero ? l.free[p] * l.rhs(i, p) : l.free[p] * (l.rhs(i, p) - l.residual(i, p));
         }
@@ -125,7 +126,7 @@ void MultigridPreconditioner::smoothLines(int level, bool rows, bool from_zero) 
     for (int t = 0; t < length; ++t) {
       const double* v_t = v + static_cast<std::ptrdiff_t>(3 * t) * kLanes;
       for (int lane = 0; lane < count; ++lane) {
-        const int p = rows ? (first + lane) * a.cols() + t : t * a.cols() + first + lane;
+        const int p = lineParticle(rows, a.cols(), first + lane, t);
         for (int i = 0; i < 3; ++i) l.solution(i, p) += kLineSmootherWeight * l.free[p] * v_t[i * kLanes + lane];
       }
     }

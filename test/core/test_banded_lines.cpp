@@ -23,8 +23,6 @@ constexpr double kSolveTolerance = 1e-12;
 /// Line lengths in dofs (three per particle): shorter than the band, as long, and much longer.
 constexpr int kLineDofs[] = {3, 9, 27};
 
-std::size_t groupSize(int dofs) { return static_cast<std::size_t>(dofs) * kBandWidth * kLanes; }
-
 /// A random symmetric positive definite matrix of `dofs` dofs banded like a line (half-width kLineBand).
 Eigen::MatrixXd randomLine(int dofs, std::mt19937& random) {
   std::uniform_real_distribution<double> off_diagonal(-1.0, 1.0);
@@ -53,7 +51,7 @@ Eigen::VectorXd randomVector(int dofs, std::mt19937& random) {
 TEST(BandedLines, EveryLaneSolvesItsOwnLineAsADenseCholeskyDoes) {
   std::mt19937 random(7);
   for (int dofs : kLineDofs) {
-    std::vector<double> band(groupSize(dofs), 0.0);
+    std::vector<double> band(static_cast<std::size_t>(groupSize(dofs)), 0.0);
     std::vector<double> v(static_cast<std::size_t>(dofs) * kLanes);
     std::vector<Eigen::VectorXd> expected;
     for (int lane = 0; lane < kLanes; ++lane) {
@@ -82,7 +80,7 @@ TEST(BandedLines, ALineGivesTheSameBitsInAnyLaneBesideAnyLines) {
     const Eigen::VectorXd b = randomVector(dofs, random);
     // First alone in lane 0 beside identity lines with zero right-hand sides (a grid's last group,
     // padded): those solve to zero.
-    std::vector<double> alone(groupSize(dofs), 0.0);
+    std::vector<double> alone(static_cast<std::size_t>(groupSize(dofs)), 0.0);
     std::vector<double> alone_v(static_cast<std::size_t>(dofs) * kLanes, 0.0);
     store(line, 0, alone);
     for (int lane = 1; lane < kLanes; ++lane) {
@@ -96,7 +94,7 @@ TEST(BandedLines, ALineGivesTheSameBitsInAnyLaneBesideAnyLines) {
     }
     // Then in every other lane among random lines: the same factor and solution, bit for bit.
     for (int lane = 1; lane < kLanes; ++lane) {
-      std::vector<double> band(groupSize(dofs), 0.0);
+      std::vector<double> band(static_cast<std::size_t>(groupSize(dofs)), 0.0);
       std::vector<double> v(static_cast<std::size_t>(dofs) * kLanes);
       for (int other = 0; other < kLanes; ++other) {
         const Eigen::VectorXd rhs = other == lane ? b : randomVector(dofs, random);

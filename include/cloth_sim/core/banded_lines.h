@@ -25,6 +25,12 @@ inline std::ptrdiff_t entry(int dof, int k, int lane) {
   return (static_cast<std::ptrdiff_t>(dof) * kBandWidth + k) * kLanes + lane;
 }
 
+/// Doubles in a group's band array: kLanes lines of `dofs` dofs.
+inline std::ptrdiff_t groupSize(int dofs) { return entry(dofs, 0, 0); }
+
+/// Groups of kLanes lines that cover `lines`.
+inline int laneGroups(int lines) { return (lines + kLanes - 1) / kLanes; }
+
 /// In place, for every lane of a group of `dofs`-dof lines: band(i, k) = A(i, i - k) becomes the
 /// Cholesky factor's L(i, i - k), except on the diagonal, which holds 1 / L(i, i) (the solves then
 /// multiply: a division's latency would sit on their critical path). A line that is not positive
