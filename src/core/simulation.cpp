@@ -149,6 +149,7 @@ void Simulation::reset() {
   state_.time_s = 0.0;
   state_.frame = 0;
   force_model_.enforceConstraints(0.0, state_);
+  last_substeps_ = nextFrameSubsteps();
 }
 
 bool Simulation::restoreState(const ClothState& state, std::string* error) {
@@ -157,6 +158,7 @@ bool Simulation::restoreState(const ClothState& state, std::string* error) {
   // The last frame's motion was the old state's: the new one has not been seen moving.
   current.guard.frame_motion_m_per_s = GuardMemory().frame_motion_m_per_s;
   current.guard.calm_frames = 0;
+  current.last_frame_substeps = 0;  // nor was it computed here
   return restore(current, error);
 }
 
@@ -249,6 +251,14 @@ int Simulation::firstSubsteps(double stable_step_s, int auto_scale, std::string*
     return OptionLimits::kMaxSubsteps;
   }
   return std::min(std::max(static_cast<int>(needed), 1) * auto_scale, OptionLimits::kMaxSubsteps);
+}
+
+int Simulation::nextFrameSubsteps() {
+  if (bound_stale_) {
+    bound_ = estimateStiffnessBound(options_, grid_, mass_kg_, inputs_);
+    bound_stale_ = false;
+  }
+  return firstSubsteps(stableStepLimit_s(options_.integrator, bound_), memory_.auto_scale, nullptr);
 }
 
 FrameEnvelope Simulation::frameEnvelope() const {
@@ -1036,7 +1046,9 @@ std::string checkInputs(const ClothInputs& inputs, const std::vector<int>& pins,
 
 }  // namespace
 
-SimulationSnapshot Simulation::snapshot() const { return SimulationSnapshot{options_, state_, inputs_, memory_}; }
+SimulationSnapshot Simulation::snapshot() const {
+  return SimulationSnapshot{options_, state_, inputs_, memory_, last_substeps_};
+}
 
 bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error) {
   // A state file holds a material, not the constants it gives: they are derived again here.
@@ -1084,6 +1096,10 @@ bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error)
               std::to_string(guard.frame_motion_m_per_s) + " m/s (at least 0), calm frames " +
               std::to_string(guard.calm_frames) + " (0 to " + std::to_string(sleepAfterFrames(options)) + ")";
   }
+  if (problem.empty() && (snapshot.last_frame_substeps < 0 || snapshot.last_frame_substeps > OptionLimits::kMaxSubsteps)) {
+    problem = "last frame's substeps " + std::to_string(snapshot.last_frame_substeps) + " (0: not known, up to " +
+              std::to_string(OptionLimits::kMaxSubsteps) + ")";
+  }
   if (!problem.empty()) {
     *error = "snapshot " + problem;
     return false;
@@ -1102,6 +1118,7 @@ bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error)
   energy_cache_valid_ = false;
   // Which pins hang on hooks follows from the grasps just restored (as grab and release keep it).
   force_model_.refreshConstraints();
+  last_substeps_ = snapshot.last_frame_substeps > 0 ? snapshot.last_frame_substeps : nextFrameSubsteps();
   return true;
 }
 
