@@ -120,6 +120,16 @@ Simulation::Simulation(const SceneOptions& options)
   integrator_ = makeIntegrator(options.integrator, options.solver);
   inputs_.wind_m_per_s = options.wind.velocity_m_per_s;
   reset();
+  // A cloth that starts inside a collider is pushed out of it within its first frame, far faster than
+  // anything in the scene moves it: the guard rejects that frame, and the recovery's reset starts it inside
+  // again, for good (a 20x20 hanging cloth through a 10 cm ball rolled back every frame). Within the
+  // contact band it is only a contact.
+  const std::string inside = colliderHoldingParticles(options_.colliders, options_.contact.depth_m, state_.time_s,
+                                                      state_.positions_m, grid_.active);
+  if (!inside.empty()) {
+    throw std::invalid_argument("the cloth starts inside a collider: " + inside +
+                                "; move the collider or the cloth (origin, u_axis, v_axis, pins)");
+  }
 }
 
 Simulation::~Simulation() = default;
