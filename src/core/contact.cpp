@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <sstream>
+#include <string>
 
 namespace cloth_sim::core {
 
@@ -436,6 +438,74 @@ double maxPenetration(const ColliderSet& colliders, double time_s, const Eigen::
     }
   }
   return deepest_m;
+}
+
+namespace {
+
+/// "(x, y, z)" and the unit, for an error.
+std::string vectorText(const Eigen::Vector3d& v, const char* unit) {
+  std::ostringstream text;
+  text << "(" << v.x() << ", " << v.y() << ", " << v.z() << ")" << unit;
+  return text.str();
+}
+
+/// The particles more than depth_m inside a collider whose signed distance `distance` gives, and the
+/// deepest of them (m): "N particles, up to D m deep", or "" when none is.
+template <typename SignedDistance>
+std::string particlesInside(double depth_m, const Eigen::Matrix3Xd& positions_m, const std::vector<std::uint8_t>& active,
+                            SignedDistance distance) {
+  int count = 0;
+  double deepest_m = 0.0;
+  for (Eigen::Index i = 0; i < positions_m.cols(); ++i) {
+    if (!active.empty() && active[static_cast<std::size_t>(i)] == 0) continue;
+    const double inside_m = -distance(Eigen::Vector3d(positions_m.col(i)));
+    if (!(inside_m > depth_m)) continue;
+    ++count;
+    deepest_m = std::max(deepest_m, inside_m);
+  }
+  if (count == 0) return "";
+  std::ostringstream text;
+  text << count << (count == 1 ? " particle" : " particles") << ", up to " << deepest_m << " m deep";
+  return text.str();
+}
+
+}  // namespace
+
+std::string colliderHoldingParticles(const ColliderSet& colliders, double depth_m, double time_s,
+                                     const Eigen::Matrix3Xd& positions_m, const std::vector<std::uint8_t>& active) {
+  for (std::size_t k = 0; k < colliders.planes.size(); ++k) {
+    const PlaneCollider& plane = colliders.planes[k];
+    const std::string inside = particlesInside(depth_m, positions_m, active,
+                                               [&plane](const Eigen::Vector3d& p) { return signedDistance(plane, p); });
+    if (!inside.empty()) {
+      std::ostringstream text;
+      text << "plane " << k << " (normal " << vectorText(plane.normal, "") << ", offset " << plane.offset_m << " m) holds "
+           << inside;
+      return text.str();
+    }
+  }
+  for (std::size_t k = 0; k < colliders.spheres.size(); ++k) {
+    const SphereCollider& sphere = colliders.spheres[k];
+    const Eigen::Vector3d center_m = sphere.centerAt(time_s);
+    const std::string inside = particlesInside(
+        depth_m, positions_m, active, [&](const Eigen::Vector3d& p) { return signedDistance(sphere, center_m, p); });
+    if (!inside.empty()) {
+      std::ostringstream text;
+      text << "sphere " << k << " (centre " << vectorText(center_m, " m") << ", radius " << sphere.radius_m << " m) holds "
+           << inside;
+      return text.str();
+    }
+  }
+  for (std::size_t k = 0; k < colliders.boxes.size(); ++k) {
+    const BoxCollider& box = colliders.boxes[k];
+    const std::string inside = particlesInside(depth_m, positions_m, active,
+                                               [&box](const Eigen::Vector3d& p) { return signedDistance(box, p); });
+    if (!inside.empty()) {
+      return "box " + std::to_string(k) + " (min " + vectorText(box.min_m, " m") + ", max " + vectorText(box.max_m, " m") +
+             ") holds " + inside;
+    }
+  }
+  return "";
 }
 
 namespace {

@@ -120,6 +120,16 @@ Simulation::Simulation(const SceneOptions& options)
   integrator_ = makeIntegrator(options.integrator, options.solver);
   inputs_.wind_m_per_s = options.wind.velocity_m_per_s;
   reset();
+  // A cloth that starts inside a collider is pushed out of it within its first frame, far faster than
+  // anything in the scene moves it: the guard rejects that frame, and the recovery's reset starts it inside
+  // again, for good (a 20x20 hanging cloth through a 10 cm ball rolled back every frame). Within the
+  // contact band it is only a contact.
+  const std::string inside = colliderHoldingParticles(options_.colliders, options_.contact.depth_m, state_.time_s,
+                                                      state_.positions_m, grid_.active);
+  if (!inside.empty()) {
+    throw std::invalid_argument("the cloth starts inside a collider: " + inside +
+                                "; move the collider or the cloth (origin, u_axis, v_axis, pins)");
+  }
 }
 
 Simulation::~Simulation() = default;
@@ -149,6 +159,7 @@ void Simulation::reset() {
   state_.time_s = 0.0;
   state_.frame = 0;
   force_model_.enforceConstraints(0.0, state_);
+  last_substeps_ = nextFrameSubsteps();
 }
 
 bool Simulation::restoreState(const ClothState& state, std::string* error) {
@@ -157,6 +168,7 @@ bool Simulation::restoreState(const ClothState& state, std::string* error) {
   // The last frame's motion was the old state's: the new one has not been seen moving.
   current.guard.frame_motion_m_per_s = GuardMemory().frame_motion_m_per_s;
   current.guard.calm_frames = 0;
+  current.last_frame_substeps = 0;  // nor was it computed here
   return restore(current, error);
 }
 
@@ -249,6 +261,14 @@ int Simulation::firstSubsteps(double stable_step_s, int auto_scale, std::string*
     return OptionLimits::kMaxSubsteps;
   }
   return std::min(std::max(static_cast<int>(needed), 1) * auto_scale, OptionLimits::kMaxSubsteps);
+}
+
+int Simulation::nextFrameSubsteps() {
+  if (bound_stale_) {
+    bound_ = estimateStiffnessBound(options_, grid_, mass_kg_, inputs_);
+    bound_stale_ = false;
+  }
+  return firstSubsteps(stableStepLimit_s(options_.integrator, bound_), memory_.auto_scale, nullptr);
 }
 
 FrameEnvelope Simulation::frameEnvelope() const {
@@ -584,299 +604,6 @@ void Simulation::setWindVelocity(const Eigen::Vector3d& wind_m_per_s) {
   energy_cache_valid_ = false;
 }
 
-bool Simulation::grab(const GraspRequest& request, std::string* error) {
-  const int count = grid_.particleCount();
-  if (!request.target_m.allFinite() || request.target_m.norm() > kMaxGraspReach_m) {
-    *error = "grasp target must be finite and within " + std::to_string(kMaxGraspReach_m) + " m of the origin";
-    return false;
-  }
-  if (!std::isfinite(request.stiffness_N_per_m) || request.stiffness_N_per_m < 0.0 ||
-      request.stiffness_N_per_m > OptionLimits::kMaxStiffnessN_per_m) {
-    *error = "grasp stiffness " + std::to_string(request.stiffness_N_per_m) + " N/m is outside [0, " +
-             std::to_string(OptionLimits::kMaxStiffnessN_per_m) + "]";
-    return false;
-  }
-  if (!request.extra_force_N.allFinite() || request.extra_force_N.norm() > kMaxGraspForce_N) {
-    *error = "grasp force must be finite and below " + std::to_string(kMaxGraspForce_N) + " N";
-    return false;
-  }
-  if (request.particle < -1 || request.particle >= count) {
-    *error = "grasp particle " + std::to_string(request.particle) + " is outside [-1, " + std::to_string(count - 1) + "]";
-    return false;
-  }
-  if (request.particle >= 0 && !grid_.isActive(request.particle)) {
-    *error = "grasp particle " + std::to_string(request.particle) + " is outside the cloth's outline";
-    return false;
-  }
-  const double stiffness =
-      request.stiffness_N_per_m > 0.0 ? request.stiffness_N_per_m : options_.grasp_stiffness_N_per_m;
-  for (Grasp& grasp : inputs_.grasps) {
-    if (grasp.id != request.id) continue;
-    grasp.target_m = request.target_m;  // dragging: the held particle stays the same
-    grasp.stiffness_N_per_m = stiffness;
-    grasp.extra_force_N = request.extra_force_N;
-    bound_stale_ = true;
-  energy_cache_valid_ = false;
-    return true;
-  }
-  if (inputs_.grasps.size() >= kMaxGrasps) {
-    *error = "already " + std::to_string(kMaxGrasps) + " grasps held: release one first";
-    return false;
-  }
-  Grasp grasp;
-  grasp.id = request.id;
-  grasp.particle = request.particle >= 0 ? request.particle : nearestParticle(request.target_m);
-  grasp.target_m = request.target_m;
-  grasp.stiffness_N_per_m = stiffness;
-  grasp.damping_N_s_per_m = options_.grasp_damping_N_s_per_m;
-  grasp.extra_force_N = request.extra_force_N;
-  // A held pin comes off its hook (paper: pins move only when grasped or driven); release() re-hooks it.
-  inputs_.grasps.push_back(grasp);
-  bound_stale_ = true;
-  energy_cache_valid_ = false;
-  force_model_.refreshConstraints();
-  return true;
-}
-
-bool Simulation::attachGripper(const GripperRequest& request, std::vector<int>* held, std::string* error) {
-  const std::string name = "gripper " + std::to_string(request.id);
-  const int count = grid_.particleCount();
-  for (const Gripper& gripper : inputs_.grippers) {
-    if (gripper.id == request.id) {
-      *error = name + " is already attached (to '" + gripper.frame + "'): detach it first or use another id";
-      return false;
-    }
-  }
-  if (inputs_.grippers.size() >= kMaxGrippers) {
-    *error = "already " + std::to_string(kMaxGrippers) + " grippers attached: detach one first";
-    return false;
-  }
-  if (!request.pose.position_m.allFinite() || request.pose.position_m.norm() > kMaxGraspReach_m ||
-      !request.pose.orientation.coeffs().allFinite() || request.pose.orientation.norm() == 0.0) {
-    *error = "frame '" + request.frame + "' has a non-finite pose or one beyond " + std::to_string(kMaxGraspReach_m) +
-             " m of the origin";
-    return false;
-  }
-  if (!std::isfinite(request.radius_m) || request.radius_m < 0.0) {
-    *error = "radius " + std::to_string(request.radius_m) + " m: must be finite and >= 0";
-    return false;
-  }
-  if (!std::isfinite(request.max_force_N) || request.max_force_N < 0.0) {
-    *error = "max_force " + std::to_string(request.max_force_N) + " N: must be finite and >= 0 (0: never slips)";
-    return false;
-  }
-  Pose pose = request.pose;
-  pose.orientation.normalize();
-  std::vector<int> particles = request.particles;
-  if (particles.empty()) {
-    if (request.radius_m <= 0.0) {
-      *error = "give particles or a radius > 0";
-      return false;
-    }
-    particles = particlesWithin(state_.positions_m, pose.position_m, request.radius_m);
-    particles.erase(std::remove_if(particles.begin(), particles.end(), [&](int p) { return !grid_.isActive(p); }),
-                    particles.end());  // outside the outline: not cloth
-    if (particles.empty()) {
-      const int nearest = nearestParticle(pose.position_m);
-      *error = "radius " + std::to_string(request.radius_m) + " m around '" + request.frame +
-               "' catches no particle (the nearest, " + std::to_string(nearest) + ", is " +
-               std::to_string((state_.positions_m.col(nearest) - pose.position_m).norm()) + " m away)";
-      return false;
-    }
-  }
-  for (std::size_t k = 0; k < particles.size(); ++k) {
-    const int particle = particles[k];
-    if (particle < 0 || particle >= count) {
-      *error = "particle " + std::to_string(particle) + " is outside [0, " + std::to_string(count - 1) + "]";
-      return false;
-    }
-    if (std::find(particles.begin(), particles.begin() + static_cast<std::ptrdiff_t>(k), particle) !=
-        particles.begin() + static_cast<std::ptrdiff_t>(k)) {
-      *error = "particle " + std::to_string(particle) + " is listed twice";
-      return false;
-    }
-    if (!grid_.isActive(particle)) {
-      *error = "particle " + std::to_string(particle) + " is outside the cloth's outline";
-      return false;
-    }
-    if (std::binary_search(inputs_.pins.begin(), inputs_.pins.end(), particle)) {
-      *error = "particle " + std::to_string(particle) + " is already held by its pin";
-      return false;
-    }
-    if (const Gripper* other = inputs_.gripperHolding(particle)) {
-      *error = "particle " + std::to_string(particle) + " is already held by gripper " + std::to_string(other->id) +
-               " ('" + other->frame + "')";
-      return false;
-    }
-  }
-  Gripper gripper;
-  gripper.id = request.id;
-  gripper.frame = request.frame;
-  gripper.particles = particles;
-  gripper.offsets_m = offsetsInFrame(state_.positions_m, particles, pose);
-  gripper.max_force_N = request.max_force_N;
-  gripper.track.start = pose;
-  gripper.track.end = pose;
-  gripper.track.start_time_s = state_.time_s;
-  gripper.track.duration_s = options_.frameDuration_s();
-  inputs_.grippers.push_back(std::move(gripper));
-  bound_stale_ = true;
-  energy_cache_valid_ = false;
-  force_model_.refreshConstraints();
-  // The particles take the frame's velocity (at rest until it moves): a hard constraint from now on.
-  force_model_.enforceConstraints(state_.time_s, state_);
-  *held = std::move(particles);
-  return true;
-}
-
-bool Simulation::detachGripper(std::uint32_t id) {
-  std::vector<Gripper>& grippers = inputs_.grippers;
-  const auto gripper = std::find_if(grippers.begin(), grippers.end(), [id](const Gripper& g) { return g.id == id; });
-  if (gripper == grippers.end()) return false;
-  const auto index = gripper - grippers.begin();
-  grippers.erase(gripper);
-  if (index < static_cast<std::ptrdiff_t>(gripper_wrenches_.size())) gripper_wrenches_.erase(gripper_wrenches_.begin() + index);
-  bound_stale_ = true;
-  energy_cache_valid_ = false;
-  force_model_.refreshConstraints();
-  return true;
-}
-
-bool Simulation::moveGripper(std::uint32_t id, const Pose& end, std::string* error) {
-  for (Gripper& gripper : inputs_.grippers) {
-    if (gripper.id != id) continue;
-    if (!end.position_m.allFinite() || end.position_m.norm() > kMaxGraspReach_m || !end.orientation.coeffs().allFinite() ||
-        end.orientation.norm() == 0.0) {
-      *error = "gripper " + std::to_string(id) + ": the pose of '" + gripper.frame +
-               "' is non-finite or beyond " + std::to_string(kMaxGraspReach_m) + " m of the origin";
-      return false;
-    }
-    Pose unit = end;
-    unit.orientation.normalize();
-    const double frame_s = options_.frameDuration_s();
-    moveTrack(gripper, unit, state_.time_s, frame_s, kMaxGripperSpeed_m_per_s * frame_s);
-    force_model_.refreshConstraints();
-    return true;
-  }
-  *error = "no gripper " + std::to_string(id) + " is attached";
-  return false;
-}
-
-bool Simulation::moveFrameCollider(std::size_t index, const Pose& frame, std::string* error) {
-  if (index >= inputs_.frame_colliders.size()) {
-    *error = "frame collider " + std::to_string(index) + " does not exist (the scene has " +
-             std::to_string(inputs_.frame_colliders.size()) + ")";
-    return false;
-  }
-  const FrameCollider& collider = options_.colliders.frames[index];
-  if (!frame.position_m.allFinite() || frame.position_m.norm() > OptionLimits::kMaxCoordinate_m ||
-      !frame.orientation.coeffs().allFinite() || frame.orientation.norm() == 0.0) {
-    *error = "frame collider " + std::to_string(index) + ": the pose of '" + collider.frame +
-             "' is non-finite or beyond " + std::to_string(OptionLimits::kMaxCoordinate_m) + " m of the origin";
-    return false;
-  }
-  Pose unit = frame;
-  unit.orientation.normalize();
-  const Pose offset = collider.offsetPose();
-  Pose shape;
-  shape.position_m = unit.transform(offset.position_m);
-  shape.orientation = (unit.orientation * offset.orientation).normalized();
-  FrameColliderTrack& entry = inputs_.frame_colliders[index];
-  entry.track.start = entry.seen ? entry.track.end : shape;  // first seen: placed, not swept in from nowhere
-  entry.track.end = shape;
-  entry.track.start_time_s = state_.time_s;
-  entry.track.duration_s = options_.frameDuration_s();
-  entry.seen = true;
-  force_model_.refreshConstraints();
-  return true;
-}
-
-void Simulation::holdUnmovedBodies() {
-  bool changed = false;
-  for (FrameColliderTrack& entry : inputs_.frame_colliders) {
-    if (!entry.seen || (entry.track.start_time_s == state_.time_s && entry.track.duration_s == options_.frameDuration_s())) {
-      continue;
-    }
-    entry.track.start = entry.track.end;
-    entry.track.start_time_s = state_.time_s;
-    entry.track.duration_s = options_.frameDuration_s();
-    changed = true;
-  }
-  for (Gripper& gripper : inputs_.grippers) {
-    if (gripper.track.start_time_s == state_.time_s && gripper.track.duration_s == options_.frameDuration_s()) continue;
-    holdStill(gripper, state_.time_s, options_.frameDuration_s());
-    changed = true;
-  }
-  if (changed) force_model_.refreshConstraints();
-}
-
-void Simulation::measureGripperWrenches() {
-  gripper_forces_N_.resize(3, state_.positions_m.cols());
-  force_model_.forces(state_.positions_m, state_.velocities_m_per_s, state_.time_s, gripper_forces_N_);
-  // The held particles' acceleration over the last substep (the step that ended where they are now).
-  const Eigen::Matrix3Xd accelerations_m_per_s2 =
-      last_step_s_ > 0.0 && last_step_start_velocities_m_per_s_.cols() == state_.velocities_m_per_s.cols()
-          ? Eigen::Matrix3Xd((state_.velocities_m_per_s - last_step_start_velocities_m_per_s_) / last_step_s_)
-          : Eigen::Matrix3Xd(Eigen::Matrix3Xd::Zero(3, state_.velocities_m_per_s.cols()));
-  gripper_wrenches_.clear();
-  bool slipped = false;
-  for (Gripper& gripper : inputs_.grippers) {
-    gripper_wrenches_.push_back(gripperWrench(gripper, gripper.track.end, state_.positions_m, gripper_forces_N_, mass_kg_,
-                                              accelerations_m_per_s2));
-    if (!gripper_wrenches_.back().slipped.empty()) {
-      letSlip(gripper, gripper_wrenches_.back().slipped);
-      slipped = true;
-    }
-  }
-  if (slipped) {
-    bound_stale_ = true;
-    energy_cache_valid_ = false;
-    force_model_.refreshConstraints();
-  }
-}
-
-bool Simulation::release(std::uint32_t id) {
-  std::vector<Grasp>& grasps = inputs_.grasps;
-  const auto held = std::find_if(grasps.begin(), grasps.end(), [id](const Grasp& g) { return g.id == id; });
-  if (held == grasps.end()) return false;
-  const int particle = held->particle;
-  grasps.erase(held);
-  bound_stale_ = true;
-  energy_cache_valid_ = false;
-  const auto pin = std::lower_bound(inputs_.pins.begin(), inputs_.pins.end(), particle);
-  if (!inputs_.isGrasped(particle) && pin != inputs_.pins.end() && *pin == particle) {
-    // Hang it on a hook where the hand let go: the pin's motion continues from there.
-    const auto p = pin - inputs_.pins.begin();
-    inputs_.pin_anchors_m.col(p) =
-        state_.positions_m.col(particle) - Kinematics::hookMotion(options_, inputs_, p).swingAt(state_.time_s);
-    inputs_.pin_travel_m.col(p).setZero();
-    force_model_.refreshConstraints();
-    force_model_.enforceConstraints(state_.time_s, state_);
-  }
-  return true;
-}
-
-int Simulation::nearestParticle(const Eigen::Vector3d& point_m) const {
-  int nearest = 0;
-  double best_m2 = std::numeric_limits<double>::infinity();
-  for (int i = 0; i < state_.particleCount(); ++i) {
-    if (!grid_.isActive(i)) continue;  // outside the outline: not part of the cloth
-    const double d2 = (state_.positions_m.col(i) - point_m).squaredNorm();
-    if (d2 < best_m2) {
-      best_m2 = d2;
-      nearest = i;
-    }
-  }
-  return nearest;
-}
-
-std::vector<Eigen::Vector3d> Simulation::sphereCenters() const {
-  std::vector<Eigen::Vector3d> centers;
-  centers.reserve(options_.colliders.spheres.size());
-  for (const SphereCollider& sphere : options_.colliders.spheres) centers.push_back(sphere.centerAt(state_.time_s));
-  return centers;
-}
-
 bool Simulation::setVertexColors(const Eigen::Matrix3Xf& colors) {
   if (colors.cols() != grid_.particleCount()) return false;
   colors_ = colors;
@@ -1036,7 +763,9 @@ std::string checkInputs(const ClothInputs& inputs, const std::vector<int>& pins,
 
 }  // namespace
 
-SimulationSnapshot Simulation::snapshot() const { return SimulationSnapshot{options_, state_, inputs_, memory_}; }
+SimulationSnapshot Simulation::snapshot() const {
+  return SimulationSnapshot{options_, state_, inputs_, memory_, last_substeps_};
+}
 
 bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error) {
   // A state file holds a material, not the constants it gives: they are derived again here.
@@ -1084,6 +813,10 @@ bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error)
               std::to_string(guard.frame_motion_m_per_s) + " m/s (at least 0), calm frames " +
               std::to_string(guard.calm_frames) + " (0 to " + std::to_string(sleepAfterFrames(options)) + ")";
   }
+  if (problem.empty() && (snapshot.last_frame_substeps < 0 || snapshot.last_frame_substeps > OptionLimits::kMaxSubsteps)) {
+    problem = "last frame's substeps " + std::to_string(snapshot.last_frame_substeps) + " (0: not known, up to " +
+              std::to_string(OptionLimits::kMaxSubsteps) + ")";
+  }
   if (!problem.empty()) {
     *error = "snapshot " + problem;
     return false;
@@ -1102,6 +835,7 @@ bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error)
   energy_cache_valid_ = false;
   // Which pins hang on hooks follows from the grasps just restored (as grab and release keep it).
   force_model_.refreshConstraints();
+  last_substeps_ = snapshot.last_frame_substeps > 0 ? snapshot.last_frame_substeps : nextFrameSubsteps();
   return true;
 }
 

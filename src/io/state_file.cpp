@@ -33,11 +33,13 @@ constexpr char kGrippersTag[4] = {'G', 'R', 'I', 'P'};  ///< ClothInputs::grippe
 constexpr char kLinksTag[4] = {'L', 'I', 'N', 'K'};     ///< ClothInputs::frame_colliders (version 3 on)
 constexpr char kMotionTag[4] = {'C', 'A', 'L', 'M'};    ///< GuardMemory::frame_motion_m_per_s (version 4 on)
 constexpr char kSleepTag[4] = {'S', 'L', 'E', 'P'};     ///< GuardMemory's calm frames and drive (version 5 on)
-constexpr std::size_t kSectionCount = 8;
+constexpr char kLastTag[4] = {'L', 'A', 'S', 'T'};      ///< the saved frame's substeps (version 6 on)
+constexpr std::size_t kSectionCount = 9;
 /// How many of the sections above a file of each version holds (index: the version, 1 up to
 /// StateFileFormat::kVersion): version 1 files end after the inputs, version 2 files after the guard's
-/// memory, version 3 files after the frame colliders' tracks, version 4 files after the last frame's motion.
-constexpr std::array<std::size_t, StateFileFormat::kVersion + 1> kSectionsInVersion{0, 3, 4, 6, 7, kSectionCount};
+/// memory, version 3 files after the frame colliders' tracks, version 4 files after the last frame's motion,
+/// version 5 files after the sleep counters.
+constexpr std::array<std::size_t, StateFileFormat::kVersion + 1> kSectionsInVersion{0, 3, 4, 6, 7, 8, kSectionCount};
 /// Bytes of one gripper before its particles: id, max force, two poses of 7 doubles, start time, duration,
 /// the frame name's length and the particle count.
 constexpr std::size_t kGripperFixedBytes = 4 + 8 + 2 * 7 * 8 + 8 + 8 + 8 + 8;
@@ -301,6 +303,12 @@ std::string encodeSleep(const GuardMemory& guard) {
   return out.bytes();
 }
 
+std::string encodeLast(int last_frame_substeps) {
+  Writer out;
+  out.put(static_cast<std::int32_t>(last_frame_substeps));
+  return out.bytes();
+}
+
 std::string encodeGuard(const GuardMemory& guard) {
   Writer out;
   out.put(static_cast<std::int32_t>(guard.auto_scale));
@@ -369,6 +377,13 @@ void decodeSleep(const std::string& bytes, GuardMemory* guard) {
   in.expectEnd();
 }
 
+int decodeLast(const std::string& bytes) {
+  Reader in(bytes.data(), bytes.size(), "last frame section");
+  const auto substeps = in.get<std::int32_t>();
+  in.expectEnd();
+  return substeps;
+}
+
 GuardMemory decodeGuard(const std::string& bytes) {
   Reader in(bytes.data(), bytes.size(), "guard section");
   GuardMemory guard;
@@ -413,6 +428,7 @@ std::string encodeStateFile(const SimulationSnapshot& snapshot) {
   payload.section(kLinksTag, encodeLinks(snapshot.inputs.frame_colliders));
   payload.section(kMotionTag, encodeMotion(snapshot.guard));
   payload.section(kSleepTag, encodeSleep(snapshot.guard));
+  payload.section(kLastTag, encodeLast(snapshot.last_frame_substeps));
   Writer file;
   file.putBytes(F::kMagic, sizeof(F::kMagic));
   file.put(F::kByteOrderMark);
@@ -462,7 +478,7 @@ bool decodeStateFile(const std::string& bytes, SimulationSnapshot* snapshot, std
     Reader sections(payload, held, "payload");
     std::array<std::string, kSectionCount> parts;
     const std::array<const char*, kSectionCount> tags{kOptionsTag, kStateTag, kInputsTag, kGuardTag, kGrippersTag,
-                                                      kLinksTag, kMotionTag, kSleepTag};
+                                                      kLinksTag, kMotionTag, kSleepTag, kLastTag};
     const std::size_t section_count = kSectionsInVersion[version];
     for (std::size_t s = 0; s < section_count; ++s) {
       const std::string expected(tags[s], kTagBytes);
@@ -488,6 +504,7 @@ bool decodeStateFile(const std::string& bytes, SimulationSnapshot* snapshot, std
     }
     if (version >= 4) read.guard.frame_motion_m_per_s = decodeMotion(parts[6]);
     if (version >= 5) decodeSleep(parts[7], &read.guard);
+    if (version >= 6) read.last_frame_substeps = decodeLast(parts[8]);
     const int particles = read.options.rows * read.options.cols;
     if (read.state.particleCount() != particles) {
       throw Malformed{"state section: " + std::to_string(read.state.particleCount()) + " particles for a " +

@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 namespace cloth_sim::core {
 namespace {
@@ -319,6 +321,61 @@ TEST(Contact, TenMetrePerSecondSphereThroughA64x64ClothIsCaughtAndPushesIt) {
   EXPECT_GT(caught.swept_hits + caught.penetrations + caught.band_collisions, 0);
   EXPECT_GT(pushed_m, 0.25) << "the cloth is pushed along";
   EXPECT_LE(worst_m, o.contact.depth_m);
+}
+
+TEST(Contact, TheColliderHoldingParticlesIsNamedWithHowManyAndHowDeep) {
+  // Three particles: one on the floor, one 5 cm inside a ball, one 1 mm under the floor (inside the
+  // 2 mm contact band: a contact, not held).
+  Eigen::Matrix3Xd positions(3, 3);
+  positions.col(0) << 0.0, 0.0, 0.0;
+  positions.col(1) << 0.0, 0.0, 1.05;
+  positions.col(2) << 2.0, 0.0, -0.001;
+  ColliderSet colliders;
+  colliders.planes.push_back(PlaneCollider{});
+  SphereCollider ball;
+  ball.center_m = Eigen::Vector3d(0.0, 0.0, 1.0);
+  ball.radius_m = 0.1;
+  colliders.spheres.push_back(ball);
+  const double band_m = ContactOptions().depth_m;
+  ASSERT_EQ(band_m, 0.002);
+  EXPECT_EQ(colliderHoldingParticles(colliders, band_m, 0.0, positions, {}),
+            "sphere 0 (centre (0, 0, 1) m, radius 0.1 m) holds 1 particle, up to 0.05 m deep");
+  // Where it is at the time asked (a sphere moving at 1 m/s along x is clear of it after 0.2 s).
+  colliders.spheres[0].velocity_m_per_s = Eigen::Vector3d::UnitX();
+  EXPECT_EQ(colliderHoldingParticles(colliders, band_m, 0.2, positions, {}), "");
+  // Planes first; a particle an outline removed is not the cloth's.
+  positions.col(2).z() = -0.01;
+  EXPECT_EQ(colliderHoldingParticles(colliders, band_m, 0.0, positions, {}),
+            "plane 0 (normal (0, 0, 1), offset 0 m) holds 1 particle, up to 0.01 m deep");
+  EXPECT_EQ(colliderHoldingParticles(colliders, band_m, 0.2, positions, {1, 1, 0}), "");
+  ColliderSet table;
+  table.boxes.push_back(BoxCollider{Eigen::Vector3d(-1.0, -1.0, 0.9), Eigen::Vector3d(1.0, 1.0, 1.1)});
+  EXPECT_EQ(colliderHoldingParticles(table, band_m, 0.0, positions, {}),
+            "box 0 (min (-1, -1, 0.9) m, max (1, 1, 1.1) m) holds 1 particle, up to 0.05 m deep");
+}
+
+TEST(Contact, AClothThatStartsInsideAColliderIsRefusedWhereItIsBuilt) {
+  // Before, such a scene ran: its first frame pushed the particles out faster than anything in the scene
+  // moves, the guard rolled it back, and the recovery's reset started it inside again, frame 0 for good.
+  SceneOptions options = test::loadBuiltinScene("hanging");
+  options.rows = 20;
+  options.cols = 20;
+  SphereCollider ball;
+  ball.center_m = Eigen::Vector3d(0.0, 0.0, 1.0);
+  ball.radius_m = 0.1;
+  options.colliders.spheres = {ball};
+  try {
+    Simulation simulation(options);
+    ADD_FAILURE() << "a cloth through a ball was built";
+  } catch (const std::invalid_argument& refused) {
+    const std::string message = refused.what();
+    EXPECT_NE(message.find("the cloth starts inside a collider: sphere 0"), std::string::npos) << message;
+    EXPECT_NE(message.find("12 particles"), std::string::npos) << message;
+  }
+  // Touching it from outside (within the contact band) is a contact: built, and it runs.
+  options.colliders.spheres[0].center_m.y() = ball.radius_m;
+  Simulation touching(options);
+  EXPECT_TRUE(touching.advanceFrame().stable);
 }
 
 }  // namespace

@@ -182,6 +182,10 @@ bool sameTrack(const PoseTrack& a, const PoseTrack& b) {
 
 ::testing::AssertionResult sameSnapshot(const SimulationSnapshot& a, const SimulationSnapshot& b) {
   if (auto options = sameOptions(a.options, b.options); !options) return options;
+  if (a.last_frame_substeps != b.last_frame_substeps) {
+    return ::testing::AssertionFailure() << "last frame's substeps differ: " << a.last_frame_substeps << " and "
+                                         << b.last_frame_substeps;
+  }
   if (a.guard.auto_scale != b.guard.auto_scale || a.guard.consecutive_rollbacks != b.guard.consecutive_rollbacks ||
       !sameBits(a.guard.frame_motion_m_per_s, b.guard.frame_motion_m_per_s) ||
       a.guard.calm_frames != b.guard.calm_frames || a.guard.drive_fingerprint != b.guard.drive_fingerprint) {
@@ -495,6 +499,57 @@ TEST(Restore, RestoreStateChecksItsInputAndKeepsOptionsAndInputs) {
   EXPECT_TRUE(sameSnapshot(expected, sim.snapshot())) << "restoreState must bring back the state, inputs untouched";
 }
 
+TEST(Restore, TheLastFrameSubstepsComeBackWithTheState) {
+  // A loaded frame reports the substeps the run that saved it computed it with (ClothState.substeps, the
+  // node's first message after ~load_state), not those of the frame the loading run was at.
+  SceneOptions options = smallHanging(IntegratorKind::kSymplecticEuler);
+  Simulation saver(options);
+  for (int k = 0; k < 3; ++k) saver.advanceFrame();
+  SceneOptions retuned = saver.options();
+  retuned.substeps = 3 * options.substeps;
+  std::string error;
+  ASSERT_TRUE(saver.retune(retuned, &error)) << error;
+  ASSERT_EQ(saver.advanceFrame().substeps_used, retuned.substeps);
+  SimulationSnapshot loaded;
+  ASSERT_TRUE(decodeStateFile(encodeStateFile(saver.snapshot()), &loaded, &error)) << error;
+  EXPECT_EQ(loaded.last_frame_substeps, retuned.substeps);
+
+  Simulation loader(options);
+  loader.advanceFrame();
+  ASSERT_EQ(loader.lastFrameSubsteps(), options.substeps);
+  ASSERT_TRUE(loader.restore(loaded, &error)) << error;
+  EXPECT_EQ(loader.lastFrameSubsteps(), retuned.substeps);
+  EXPECT_TRUE(sameSnapshot(saver.snapshot(), loader.snapshot()));
+
+  // Not known (a file before version 6, a state put in by hand): what the next frame will take.
+  loaded.last_frame_substeps = 0;
+  Simulation old_file(options);
+  ASSERT_TRUE(old_file.restore(loaded, &error)) << error;
+  EXPECT_EQ(old_file.lastFrameSubsteps(), retuned.substeps);
+  EXPECT_EQ(old_file.advanceFrame().substeps_used, retuned.substeps);
+  ASSERT_TRUE(loader.restoreState(saver.state(), &error)) << error;
+  EXPECT_EQ(loader.lastFrameSubsteps(), retuned.substeps);
+}
+
+TEST(Restore, BeforeItsFirstFrameASimulationReportsTheSubstepsTheFirstWillTake) {
+  SceneOptions options = smallHanging(IntegratorKind::kSymplecticEuler);
+  for (const int substeps : {options.substeps, 0}) {  // fixed, then `auto`
+    options.substeps = substeps;
+    Simulation sim(options);
+    const int before = sim.lastFrameSubsteps();
+    EXPECT_EQ(sim.advanceFrame().substeps_used, before) << "substeps " << substeps;
+    EXPECT_GT(before, 1) << "the explicit integrator needs several: the test would not tell 1 from them";
+    sim.reset();
+    EXPECT_EQ(sim.lastFrameSubsteps(), before) << "after a reset";
+  }
+}
+
+TEST(Restore, ALastFrameSubstepCountOutOfRangeIsRefused) {
+  expectRefused([](SimulationSnapshot& s) { s.last_frame_substeps = -1; }, "last frame's substeps -1");
+  expectRefused([](SimulationSnapshot& s) { s.last_frame_substeps = OptionLimits::kMaxSubsteps + 1; },
+                "last frame's substeps");
+}
+
 // ---- The scene writer ------------------------------------------------------------------------------
 
 SceneOptions readBack(const std::string& text);
@@ -712,6 +767,8 @@ TEST(StateFile, RoundTripIsBitExact) {
 constexpr std::size_t kMotionSectionBytes = 4 + 8 + 8;
 /// The SLEP section (version 5 on): a tag, an 8-byte length, the calm frames (int32) and the drive (uint64).
 constexpr std::size_t kSleepSectionBytes = 4 + 8 + 4 + 8;
+/// The LAST section (version 6 on): a tag, an 8-byte length and the saved frame's substeps (int32).
+constexpr std::size_t kLastSectionBytes = 4 + 8 + 4;
 
 /// bytes, an encoded file, cut to its first `version`'s sections: the last `cut` bytes dropped.
 std::string asOlderVersion(std::string bytes, std::uint32_t version, std::size_t cut) {
@@ -735,19 +792,36 @@ SimulationSnapshot sleepingSnapshot() {
   return sim.snapshot();
 }
 
+TEST(StateFile, AVersion5FileStillLoadsWithTheLastFrameSubstepsUnknown) {
+  SimulationSnapshot saved = drivenSnapshot();
+  saved.last_frame_substeps = 4;
+  const std::string bytes = encodeStateFile(saved);
+  ASSERT_EQ(bytes.substr(bytes.size() - kLastSectionBytes, 4), "LAST");
+  SimulationSnapshot loaded;
+  std::string error;
+  ASSERT_TRUE(decodeStateFile(bytes, &loaded, &error)) << error;
+  EXPECT_EQ(loaded.last_frame_substeps, 4) << "version 6 keeps the saved frame's substeps";
+  ASSERT_TRUE(decodeStateFile(asOlderVersion(bytes, 5, kLastSectionBytes), &loaded, &error)) << error;
+  EXPECT_EQ(loaded.last_frame_substeps, 0) << "an older file does not know them";
+  saved.last_frame_substeps = 0;
+  EXPECT_TRUE(sameSnapshot(saved, loaded));
+}
+
 TEST(StateFile, AVersion4FileStillLoadsAwake) {
   SimulationSnapshot saved = sleepingSnapshot();
   ASSERT_EQ(saved.guard.calm_frames, Simulation::sleepAfterFrames(saved.options)) << "the sheet on the floor never slept";
   const std::string bytes = encodeStateFile(saved);
-  ASSERT_EQ(bytes.substr(bytes.size() - kSleepSectionBytes, 4), "SLEP");
+  ASSERT_EQ(bytes.substr(bytes.size() - kLastSectionBytes - kSleepSectionBytes, 4), "SLEP");
   SimulationSnapshot loaded;
   std::string error;
   ASSERT_TRUE(decodeStateFile(bytes, &loaded, &error)) << error;
-  EXPECT_TRUE(sameSnapshot(saved, loaded)) << "version 5 keeps the sleep count";
-  ASSERT_TRUE(decodeStateFile(asOlderVersion(bytes, 4, kSleepSectionBytes), &loaded, &error)) << error;
+  EXPECT_TRUE(sameSnapshot(saved, loaded)) << "version 6 keeps the sleep count";
+  ASSERT_TRUE(decodeStateFile(asOlderVersion(bytes, 4, kLastSectionBytes + kSleepSectionBytes), &loaded, &error))
+      << error;
   EXPECT_EQ(loaded.guard.calm_frames, 0) << "an older file's cloth must be seen at rest before it sleeps";
   saved.guard.calm_frames = 0;
   saved.guard.drive_fingerprint = 0;
+  saved.last_frame_substeps = 0;
   EXPECT_TRUE(sameSnapshot(saved, loaded));
 }
 
@@ -755,15 +829,16 @@ TEST(StateFile, AVersion3FileStillLoadsWithNoFrameMotionMeasured) {
   SimulationSnapshot saved = drivenSnapshot();
   ASSERT_TRUE(std::isfinite(saved.guard.frame_motion_m_per_s)) << "the driven run measured no frame";
   const std::string bytes = encodeStateFile(saved);
-  ASSERT_EQ(bytes.substr(bytes.size() - kSleepSectionBytes - kMotionSectionBytes, 4), "CALM");
+  constexpr std::size_t kNewer = kMotionSectionBytes + kSleepSectionBytes + kLastSectionBytes;
+  ASSERT_EQ(bytes.substr(bytes.size() - kNewer, 4), "CALM");
   SimulationSnapshot loaded;
   std::string error;
-  ASSERT_TRUE(decodeStateFile(asOlderVersion(bytes, 3, kMotionSectionBytes + kSleepSectionBytes), &loaded, &error))
-      << error;
+  ASSERT_TRUE(decodeStateFile(asOlderVersion(bytes, 3, kNewer), &loaded, &error)) << error;
   EXPECT_TRUE(std::isinf(loaded.guard.frame_motion_m_per_s)) << "an older file's cloth must not count as calm";
   saved.guard.frame_motion_m_per_s = GuardMemory().frame_motion_m_per_s;
   saved.guard.calm_frames = 0;
   saved.guard.drive_fingerprint = 0;
+  saved.last_frame_substeps = 0;
   EXPECT_TRUE(sameSnapshot(saved, loaded));
 }
 
@@ -773,10 +848,10 @@ TEST(StateFile, AVersion2FileStillLoadsWithNoGrippersOrLinkPoses) {
   saved.inputs.frame_colliders.clear();
   saved.options.colliders.frames.clear();
   const std::string bytes = encodeStateFile(saved);
-  // Version 2 is version 5 without the last four sections: GRIP and LINK, each a tag, an 8-byte length
-  // and an 8-byte count of 0, CALM and SLEP.
+  // Version 2 is version 6 without the last five sections: GRIP and LINK, each a tag, an 8-byte length
+  // and an 8-byte count of 0, CALM, SLEP and LAST.
   constexpr std::size_t kEmptySectionBytes = 4 + 8 + 8;
-  constexpr std::size_t kNewer = kSleepSectionBytes + kMotionSectionBytes;
+  constexpr std::size_t kNewer = kSleepSectionBytes + kMotionSectionBytes + kLastSectionBytes;
   ASSERT_EQ(bytes.substr(bytes.size() - kNewer - 2 * kEmptySectionBytes, 4), "GRIP");
   ASSERT_EQ(bytes.substr(bytes.size() - kNewer - kEmptySectionBytes, 4), "LINK");
   SimulationSnapshot loaded;
@@ -785,6 +860,7 @@ TEST(StateFile, AVersion2FileStillLoadsWithNoGrippersOrLinkPoses) {
   saved.guard.frame_motion_m_per_s = GuardMemory().frame_motion_m_per_s;
   saved.guard.calm_frames = 0;
   saved.guard.drive_fingerprint = 0;
+  saved.last_frame_substeps = 0;
   EXPECT_TRUE(sameSnapshot(saved, loaded));
 }
 
@@ -938,12 +1014,12 @@ TEST(StateFile, SizesOfOrdinarySnapshots) {
     snapshot.inputs.pin_travel_m.setZero(3, 2);
     const std::size_t size = encodeStateFile(snapshot).size();
     std::printf("[ size       ] hanging %dx%d: %zu bytes\n", side, side, size);
-    // Header, 8 section headers (tag + length), options text, state, inputs, guard memory (2 x int32),
+    // Header, 9 section headers (tag + length), options text, state, inputs, guard memory (2 x int32),
     // grippers and frame colliders (a count of 0 each), the last frame's motion (a double), the calm
-    // frames and the drive (an int32 and a uint64).
-    EXPECT_EQ(size, StateFileFormat::kHeaderBytes + 8 * 12 + sceneYaml(snapshot.options).size() +
+    // frames and the drive (an int32 and a uint64), the last frame's substeps (an int32).
+    EXPECT_EQ(size, StateFileFormat::kHeaderBytes + 9 * 12 + sceneYaml(snapshot.options).size() +
                         (8 + 8 + 8 + 48 * static_cast<std::size_t>(side * side)) + (24 + 8 + 2 * 4 + 2 * 48 + 8) + 8 +
-                        8 + 8 + 8 + (4 + 8));
+                        8 + 8 + 8 + (4 + 8) + 4);
   }
 }
 

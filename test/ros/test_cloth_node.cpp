@@ -737,6 +737,19 @@ TEST_F(LoadSceneRefusal, AGoodSceneWithAMissingOrBadTextureKeepsTheOldSceneRunni
                                {"texture"});
 }
 
+TEST_F(LoadSceneRefusal, AClothThatStartsInsideATableIsRefusedNamingTheTable) {
+  // Before, the scene replaced the old one and sat at frame 0: every frame rolled back, every third
+  // reset the scene, an ERROR each time.
+  ASSERT_NO_FATAL_FAILURE(freshScene(false));
+  const std::string dir = scratchDir();
+  expectRefusedAndOldSceneRuns(
+      writeFile(dir, "through.yaml",
+                "name: through\nrows: 6\ncols: 6\nwidth: 1.0\nheight: 1.0\norigin: [-0.5, 0.0, 1.5]\n"
+                "u_axis: [1.0, 0.0, 0.0]\nv_axis: [0.0, 0.0, -1.0]\n"
+                "boxes:\n  - {min: [-0.2, -0.2, 0.8], max: [0.2, 0.2, 1.2]}\n"),
+      {"the cloth starts inside a collider", "box 0", "4 particles"});
+}
+
 TEST_F(LoadSceneRefusal, AFrameRateTheNodeCannotTimeIsRefusedAndTheOldSceneRuns) {
   // Before, validation passed, the new scene replaced the old one, then ros::Duration threw: the call
   // failed with no answer and the node sat at frame 0 saying "running".
@@ -1270,6 +1283,23 @@ TEST(BadParams, APinMotionTooFastForTheNodeToPublishFinitelyIsRefused) {
   // Before, the curtain at pin_motion_period 1e-300 ran and published kinetic_energy = inf.
   expectRefused("bad_pin_period", "_scene:=curtain _pin_motion_period:=1e-300",
                 {"pin_motion_period", "at most 100 m/s"});
+}
+
+TEST(BadParams, AClothThatStartsInsideASphereIsRefusedNamingTheSphere) {
+  // Before, the node ran at frame 0 for good, logging an ERROR every frame (the scene reset every third).
+  XmlRpc::XmlRpcValue sphere;
+  sphere["center"][0] = 0.0;
+  sphere["center"][1] = 0.0;
+  sphere["center"][2] = 1.0;
+  sphere["radius"] = 0.1;
+  XmlRpc::XmlRpcValue spheres;
+  spheres[0] = sphere;
+  expectRefusedWithParameters("inside_sphere",
+                              {{"scene", XmlRpc::XmlRpcValue(std::string("hanging"))},
+                               {"rows", XmlRpc::XmlRpcValue(20)},
+                               {"cols", XmlRpc::XmlRpcValue(20)},
+                               {"spheres", spheres}},
+                              {"the cloth starts inside a collider", "sphere 0 (centre (0, 0, 1) m, radius 0.1 m)"});
 }
 
 TEST(BadParams, NanInfAndAbsurdSizesAreNamed) {

@@ -22,6 +22,8 @@
 
 #include <Eigen/Core>
 
+#include <cstdint>
+#include <string>
 #include <vector>
 
 namespace cloth_sim::core {
@@ -129,5 +131,12 @@ double nearestSurfaceDistance_m(const ColliderSet& colliders, double time_s, con
 
 /// The deepest a particle sits inside any collider, m (negative signed distance); 0 when none is inside.
 double maxPenetration(const ColliderSet& colliders, double time_s, const Eigen::Matrix3Xd& positions_m);
+
+/// The first plane, sphere (at time_s) or box, in that order, that holds particles of positions_m more
+/// than depth_m inside it (those `active` marks, or all when it is empty): its kind, index and shape, how
+/// many it holds and how deep the deepest is, as words for an error; "" when none does. Frame colliders
+/// are not considered (their poses arrive later).
+std::string colliderHoldingParticles(const ColliderSet& colliders, double depth_m, double time_s,
+                                     const Eigen::Matrix3Xd& positions_m, const std::vector<std::uint8_t>& active);
 
 }  // namespace cloth_sim::core

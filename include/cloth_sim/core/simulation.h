@@ -200,7 +200,8 @@ class Simulation {
   double totalEnergy_J(const EnergyReport& energies) const;
   double maxStructuralStrain() const;
   /// Substeps the last computed frame was computed with (with `auto`, what the guard chose; before the
-  /// first frame, what the first would take). A frame slept through leaves it as it was.
+  /// first frame after a start or reset, what the first would take; after restore(), the snapshot's).
+  /// A frame slept through leaves it as it was.
   int lastFrameSubsteps() const { return last_substeps_; }
   /// What `auto` remembers between frames (part of a snapshot: a restored run chooses the same substeps).
   const GuardMemory& guardMemory() const { return memory_; }
@@ -244,6 +245,9 @@ class Simulation {
   /// them crossed), while refining without a bound kept the 128x128 fold at rest at 16.
   static constexpr int kGuaranteeRefinementScale = 4;
   int firstSubsteps(double stable_step_s, int auto_scale, std::string* warning) const;
+  /// The substeps the next frame starts from (firstSubsteps at the remembered scale), with the
+  /// stiffness bound brought up to date: what lastFrameSubsteps() says before a frame is computed.
+  int nextFrameSubsteps();
   /// Whether a computed frame took self-collision's no-crossing guarantee out of force (stretch ratio
   /// above SelfCollision::kGuaranteedStretchRatio, from at most it) while layers touched.
   static bool leavesGuarantee(const FrameReport& report, const FrameEnvelope& envelope);
@@ -288,7 +292,7 @@ class Simulation {
   GuardMemory memory_;
   StiffnessBound bound_;     ///< of options_, masses and grasps; recomputed when bound_stale_
   bool bound_stale_ = true;
-  int last_substeps_ = 1;
+  int last_substeps_ = 1;  ///< see lastFrameSubsteps()
   /// The frame just computed was refined because it left self-collision's guarantee, and the refined
   /// result still leaves it: `auto` does not keep the refinement's scale (scratch of advanceFrame).
   bool futile_refinement_ = false;

@@ -21,7 +21,8 @@ struct StateFileFormat {
   /// (GRIP) and the frame colliders' tracks (LINK); older files restore with none. Version 4 added the
   /// last frame's motion (CALM), which `auto` substeps read; older files restore with none measured.
   /// Version 5 added the sleep count and the drive it was counted under (SLEP); older files restore awake.
-  static constexpr std::uint32_t kVersion = 5;
+  /// Version 6 added the saved frame's substeps (LAST); older files report what the next frame takes.
+  static constexpr std::uint32_t kVersion = 6;
   /// Written in the writer's byte order: read back as 0x04030201 on a machine of the other order.
   static constexpr std::uint32_t kByteOrderMark = 0x01020304;
   static constexpr std::size_t kHeaderBytes = 32;
