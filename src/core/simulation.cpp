@@ -120,16 +120,25 @@ Simulation::Simulation(const SceneOptions& options)
   integrator_ = makeIntegrator(options.integrator, options.solver);
   inputs_.wind_m_per_s = options.wind.velocity_m_per_s;
   reset();
+  const std::string inside = startsInsideCollider(options_);
+  if (!inside.empty()) throw std::invalid_argument(inside);
+}
+
+std::string Simulation::startsInsideCollider(const SceneOptions& options) const {
   // A cloth that starts inside a collider is pushed out of it within its first frame, far faster than
   // anything in the scene moves it: the guard rejects that frame, and the recovery's reset starts it inside
   // again, for good (a 20x20 hanging cloth through a 10 cm ball rolled back every frame). Within the
-  // contact band it is only a contact.
-  const std::string inside = colliderHoldingParticles(options_.colliders, options_.contact.depth_m, state_.time_s,
-                                                      state_.positions_m, grid_.active);
-  if (!inside.empty()) {
-    throw std::invalid_argument("the cloth starts inside a collider: " + inside +
-                                "; move the collider or the cloth (origin, u_axis, v_axis, pins)");
+  // contact band it is only a contact; pinned particles are not the colliders' (contacts leave them alone:
+  // a clamp may hold a pin).
+  std::vector<std::uint8_t> free_particles(static_cast<std::size_t>(grid_.particleCount()));
+  const Eigen::VectorXd& inverse_mass = force_model_.inverseMass_per_kg();
+  for (int p = 0; p < grid_.particleCount(); ++p) {
+    free_particles[static_cast<std::size_t>(p)] = grid_.isActive(p) && inverse_mass[p] != 0.0;
   }
+  const std::string inside = colliderHoldingParticles(options.colliders, options.contact.depth_m + kStartInsideTolerance_m,
+                                                      0.0, grid_.rest_positions_m, free_particles);
+  if (inside.empty()) return "";
+  return "the cloth starts inside a collider: " + inside + "; move the collider or the cloth (origin, u_axis, v_axis, pins)";
 }
 
 Simulation::~Simulation() = default;
@@ -263,11 +272,14 @@ int Simulation::firstSubsteps(double stable_step_s, int auto_scale, std::string*
   return std::min(std::max(static_cast<int>(needed), 1) * auto_scale, OptionLimits::kMaxSubsteps);
 }
 
+void Simulation::refreshBound() {
+  if (!bound_stale_) return;
+  bound_ = estimateStiffnessBound(options_, grid_, mass_kg_, inputs_);
+  bound_stale_ = false;
+}
+
 int Simulation::nextFrameSubsteps() {
-  if (bound_stale_) {
-    bound_ = estimateStiffnessBound(options_, grid_, mass_kg_, inputs_);
-    bound_stale_ = false;
-  }
+  refreshBound();
   return firstSubsteps(stableStepLimit_s(options_.integrator, bound_), memory_.auto_scale, nullptr);
 }
 
@@ -371,10 +383,7 @@ FrameReport Simulation::advanceFrame() {
                     std::to_string(OptionLimits::kMaxFrame) + "): reset it";
     return report;
   }
-  if (bound_stale_) {
-    bound_ = estimateStiffnessBound(options_, grid_, mass_kg_, inputs_);
-    bound_stale_ = false;
-  }
+  refreshBound();
   report.stable_step_s = stableStepLimit_s(options_.integrator, bound_);
   holdUnmovedBodies();
   const bool driven = isDriven();
@@ -581,6 +590,10 @@ bool Simulation::retune(const SceneOptions& given, std::string* error) {
   const std::vector<std::string> problems = validateSceneOptions(options);
   if (!problems.empty()) {
     *error = problems.front();
+    return false;
+  }
+  if (const std::string inside = startsInsideCollider(options); !inside.empty()) {
+    *error = inside;  // a recovery's reset would start it there
     return false;
   }
   if (options.integrator != options_.integrator || options.solver.tolerance != options_.solver.tolerance ||
@@ -813,6 +826,7 @@ bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error)
               std::to_string(guard.frame_motion_m_per_s) + " m/s (at least 0), calm frames " +
               std::to_string(guard.calm_frames) + " (0 to " + std::to_string(sleepAfterFrames(options)) + ")";
   }
+  if (problem.empty()) problem = startsInsideCollider(options);  // a recovery's reset would start it there
   if (problem.empty() && (snapshot.last_frame_substeps < 0 || snapshot.last_frame_substeps > OptionLimits::kMaxSubsteps)) {
     problem = "last frame's substeps " + std::to_string(snapshot.last_frame_substeps) + " (0: not known, up to " +
               std::to_string(OptionLimits::kMaxSubsteps) + ")";

@@ -249,7 +249,7 @@ std::unique_ptr<core::Simulation> ClothNode::buildSimulation(const std::string& 
   std::unique_ptr<core::Simulation> simulation;
   try {
     simulation = std::make_unique<core::Simulation>(options);
-  } catch (const std::exception& e) {  // validated options do not throw; memory may still run out
+  } catch (const std::exception& e) {  // a cloth that starts inside a collider; memory may run out
     *error = "scene '" + scene + "': cannot be built: " + e.what();
     return nullptr;
   }

@@ -376,6 +376,29 @@ TEST(Contact, AClothThatStartsInsideAColliderIsRefusedWhereItIsBuilt) {
   options.colliders.spheres[0].center_m.y() = ball.radius_m;
   Simulation touching(options);
   EXPECT_TRUE(touching.advanceFrame().stable);
+  // Nor may a retune or a restore bring the ball in: the recovery's reset would start the cloth there.
+  SceneOptions through = touching.options();
+  through.colliders.spheres[0].center_m.y() = 0.0;
+  std::string error;
+  EXPECT_FALSE(touching.retune(through, &error));
+  EXPECT_NE(error.find("sphere 0"), std::string::npos) << error;
+  SimulationSnapshot snapshot = touching.snapshot();
+  snapshot.options = through;
+  EXPECT_FALSE(touching.restore(snapshot, &error));
+  EXPECT_NE(error.find("starts inside a collider"), std::string::npos) << error;
+}
+
+TEST(Contact, APinHeldInsideAColliderIsAClampNotAClothInsideIt) {
+  // Contacts leave pinned particles alone, so a box around a pin (a clamp, a curtain rail) was always fine.
+  SceneOptions options = test::loadBuiltinScene("hanging");
+  options.rows = 20;
+  options.cols = 20;
+  Simulation probe(options);
+  const Eigen::Vector3d pin_m = probe.state().positions_m.col(0);
+  const Eigen::Vector3d half_m = Eigen::Vector3d::Constant(0.01);
+  options.colliders.boxes = {BoxCollider{pin_m - half_m, pin_m + half_m}};
+  Simulation clamped(options);
+  for (int frame = 0; frame < 20; ++frame) ASSERT_TRUE(clamped.advanceFrame().stable) << "frame " << frame;
 }
 
 }  // namespace

@@ -200,7 +200,7 @@ class Simulation {
   double totalEnergy_J(const EnergyReport& energies) const;
   double maxStructuralStrain() const;
   /// Substeps the last computed frame was computed with (with `auto`, what the guard chose; before the
-  /// first frame after a start or reset, what the first would take; after restore(), the snapshot's).
+  /// first frame after a start or reset(), what the first starts from; after restore(), the snapshot's).
   /// A frame slept through leaves it as it was.
   int lastFrameSubsteps() const { return last_substeps_; }
   /// What `auto` remembers between frames (part of a snapshot: a restored run chooses the same substeps).
@@ -245,9 +245,17 @@ class Simulation {
   /// them crossed), while refining without a bound kept the 128x128 fold at rest at 16.
   static constexpr int kGuaranteeRefinementScale = 4;
   int firstSubsteps(double stable_step_s, int auto_scale, std::string* warning) const;
-  /// The substeps the next frame starts from (firstSubsteps at the remembered scale), with the
-  /// stiffness bound brought up to date: what lastFrameSubsteps() says before a frame is computed.
+  /// The substeps the next frame starts from (firstSubsteps at the remembered scale; a trial, a wake or
+  /// the guard may still change them), with the stiffness bound brought up to date: what
+  /// lastFrameSubsteps() says before a frame is computed.
   int nextFrameSubsteps();
+  /// Recomputes the stiffness bound if something it depends on changed (bound_stale_).
+  void refreshBound();
+  /// Why a scene with these colliders cannot start: free particles of the cloth at rest more than the
+  /// contact band (plus kStartInsideTolerance_m) inside a plane, a sphere at t = 0 or a box; "" if none.
+  std::string startsInsideCollider(const SceneOptions& options) const;
+  /// Rounding room for a cloth lying exactly on a surface when `contact_depth` is 0, m.
+  static constexpr double kStartInsideTolerance_m = 1e-9;
   /// Whether a computed frame took self-collision's no-crossing guarantee out of force (stretch ratio
   /// above SelfCollision::kGuaranteedStretchRatio, from at most it) while layers touched.
   static bool leavesGuarantee(const FrameReport& report, const FrameEnvelope& envelope);

@@ -18,7 +18,7 @@ struct SimulationSnapshot {
   GuardMemory guard;
   /// Substeps the state's frame was computed with (Simulation::lastFrameSubsteps): not needed to
   /// continue, but what a restored run reports for its first frame, as the run that saved it did. 0: not
-  /// known (a state file older than version 6); restoring then reports what the next frame would take.
+  /// known (a state file older than version 6); restoring then reports what the next frame starts from.
   int last_frame_substeps = 0;
 };
 
