@@ -440,14 +440,13 @@ double maxPenetration(const ColliderSet& colliders, double time_s, const Eigen::
   return deepest_m;
 }
 
-namespace {
-
-/// "(x, y, z)" and the unit, for an error.
-std::string vectorText(const Eigen::Vector3d& v, const char* unit) {
+std::string vectorText(const Eigen::Vector3d& v) {
   std::ostringstream text;
-  text << "(" << v.x() << ", " << v.y() << ", " << v.z() << ")" << unit;
+  text << "(" << v.x() << ", " << v.y() << ", " << v.z() << ")";
   return text.str();
 }
+
+namespace {
 
 /// The particles more than depth_m inside a collider whose signed distance `distance` gives, and the
 /// deepest of them (m): "N particles, up to D m deep", or "" when none is.
@@ -479,7 +478,7 @@ std::string colliderHoldingParticles(const ColliderSet& colliders, double depth_
                                                [&plane](const Eigen::Vector3d& p) { return signedDistance(plane, p); });
     if (!inside.empty()) {
       std::ostringstream text;
-      text << "plane " << k << " (normal " << vectorText(plane.normal, "") << ", offset " << plane.offset_m << " m) holds "
+      text << "plane " << k << " (normal " << vectorText(plane.normal) << ", offset " << plane.offset_m << " m) holds "
            << inside;
       return text.str();
     }
@@ -491,7 +490,7 @@ std::string colliderHoldingParticles(const ColliderSet& colliders, double depth_
         depth_m, positions_m, active, [&](const Eigen::Vector3d& p) { return signedDistance(sphere, center_m, p); });
     if (!inside.empty()) {
       std::ostringstream text;
-      text << "sphere " << k << " (centre " << vectorText(center_m, " m") << ", radius " << sphere.radius_m << " m) holds "
+      text << "sphere " << k << " (centre " << vectorText(center_m) << " m" << ", radius " << sphere.radius_m << " m) holds "
            << inside;
       return text.str();
     }
@@ -501,8 +500,8 @@ std::string colliderHoldingParticles(const ColliderSet& colliders, double depth_
     const std::string inside = particlesInside(depth_m, positions_m, active,
                                                [&box](const Eigen::Vector3d& p) { return signedDistance(box, p); });
     if (!inside.empty()) {
-      return "box " + std::to_string(k) + " (min " + vectorText(box.min_m, " m") + ", max " + vectorText(box.max_m, " m") +
-             ") holds " + inside;
+      return "box " + std::to_string(k) + " (min " + vectorText(box.min_m) + " m, max " + vectorText(box.max_m) +
+             " m) holds " + inside;
     }
   }
   return "";

@@ -666,12 +666,6 @@ Eigen::Matrix3Xf checkerColors(const Eigen::Matrix2Xd& uv) {
 
 namespace {
 
-std::string vectorText(const Eigen::Vector3d& v) {
-  std::ostringstream text;
-  text << "(" << v.x() << ", " << v.y() << ", " << v.z() << ")";
-  return text.str();
-}
-
 /// Pin hooks and travels are differences of points that the guard and the options bound: a particle let go
 /// within kDivergenceBound_m less a pin motion within kMaxCoordinate_m; a rest position (origin within
 /// kMaxCoordinate_m plus the cloth's sides) less a pin position. No valid run leaves this box (m).

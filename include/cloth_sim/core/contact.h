@@ -132,6 +132,9 @@ double nearestSurfaceDistance_m(const ColliderSet& colliders, double time_s, con
 /// The deepest a particle sits inside any collider, m (negative signed distance); 0 when none is inside.
 double maxPenetration(const ColliderSet& colliders, double time_s, const Eigen::Matrix3Xd& positions_m);
 
+/// "(x, y, z)": a point or a direction in an error (the unit is the caller's).
+std::string vectorText(const Eigen::Vector3d& v);
+
 /// The first plane, sphere (at time_s) or box, in that order, that holds particles of positions_m more
 /// than depth_m inside it (those `active` marks, or all when it is empty): its kind, index and shape, how
 /// many it holds and how deep the deepest is, as words for an error; "" when none does. Frame colliders
