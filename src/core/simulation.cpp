@@ -288,7 +288,8 @@ FrameEnvelope Simulation::frameEnvelope() const {
   // something outside advanceFrame changed the state or the options since (one pass over the springs
   // saved each way).
   const EnergyReport energies_now = energy_cache_valid_ ? cached_energies_ : energies();
-  EnvelopeInputs scene{options_, grid_, mass_kg_, inputs_, state_, bound_, force_model_.kinematics()};
+  EnvelopeInputs scene{options_, grid_, mass_kg_, inputs_, state_, bound_, force_model_.kinematics(),
+                       force_model_.inverseMass_per_kg()};
   scene.energy_before_J = totalEnergy_J(energies_now);
   scene.kinetic_J = energies_now.kinetic_J;
   scene.elastic_J = energies_now.elastic_J;

@@ -1,5 +1,7 @@
 #include "cloth_sim/core/stability_guard.h"
 
+#include "cloth_sim/core/frame_colliders.h"
+
 #include <algorithm>
 #include <cmath>
 #include <complex>
@@ -253,15 +255,34 @@ FrameEnvelope frameEnvelope(const EnvelopeInputs& scene) {
                         near * 0.5 * mass_kg.maxCoeff() * 4.0 * speed_m_per_s * speed_m_per_s;
   }
   // A link on a tf frame pushes like a sphere the size of its bounding sphere, at the speed of its
-  // farthest point (origin speed plus the turn times the bounding radius).
+  // farthest point (origin speed plus the turn times the bounding radius). A link's first pose places it
+  // without sweeping it there (Simulation::moveFrameCollider), so it may come to rest through the cloth:
+  // the contacts push each free particle inside out by its depth within the frame, the work of a link that
+  // travelled that far. Without it the guard rolled that frame back, and the recovery's reset started the
+  // cloth inside the link again, every third frame for good.
+  double deepest_push_m = 0.0;
   for (const auto& [collider, body] : kinematics.frameColliderBodies()) {
-    const double bound_m = options.colliders.frames[collider].boundingRadius_m();
+    const FrameCollider& shape = options.colliders.frames[collider];
+    const double bound_m = shape.boundingRadius_m();
     const Twist twist = kinematics.bodies()[body].twistAt(state.time_s);
     const double speed_m_per_s = twist.linear_m_per_s.norm() + twist.angular_rad_per_s.norm() * bound_m;
     const double reach_m = bound_m + speed_m_per_s * frame_s + options.contact.depth_m + cloth_speed_m_per_s * frame_s;
-    const Eigen::Vector3d center_m = kinematics.bodies()[body].poseAt(state.time_s).position_m;
-    const double near = static_cast<double>(
-        ((state.positions_m.colwise() - center_m).colwise().norm().array() <= reach_m).count());
+    const Pose pose = kinematics.bodies()[body].poseAt(state.time_s);
+    const Eigen::Matrix3d to_local = pose.orientation.toRotationMatrix().transpose();
+    const Eigen::VectorXd distance_m = (state.positions_m.colwise() - pose.position_m).colwise().norm().transpose();
+    double near = 0.0;
+    for (Eigen::Index i = 0; i < distance_m.size(); ++i) {
+      if (distance_m[i] > reach_m) continue;
+      near += 1.0;
+      if (distance_m[i] > bound_m || scene.inverse_mass_per_kg[i] == 0.0) continue;
+      Eigen::Vector3d normal;
+      const double push_m =
+          -shapeSignedDistance(shape, to_local * (state.positions_m.col(i) - pose.position_m), &normal) -
+          options.contact.depth_m;
+      if (push_m <= 0.0) continue;
+      kinematic_work_J += particle_stiffness_N_per_m * push_m * (envelope.strain_before * longest_m + push_m);
+      deepest_push_m = std::max(deepest_push_m, push_m);
+    }
     kinematic_work_J += kinematicWork_J(speed_m_per_s, near) +
                         near * 0.5 * mass_kg.maxCoeff() * 4.0 * speed_m_per_s * speed_m_per_s;
   }
@@ -280,7 +301,8 @@ FrameEnvelope frameEnvelope(const EnvelopeInputs& scene) {
   const double shortest_m = rest_m.empty() ? 0.0 : *std::min_element(rest_m.begin(), rest_m.end());
   const double spring_capacity_N_per_strain = structural.enabled ? structural.stiffness_N_per_m * shortest_m : 0.0;
   // Bodies move particles by hand: in a frame they can stretch a spring by their travel.
-  const double kinematic_strain = shortest_m > 0.0 ? kinematic_speed_m_per_s * frame_s / shortest_m : 0.0;
+  const double kinematic_strain =
+      shortest_m > 0.0 ? (kinematic_speed_m_per_s * frame_s + deepest_push_m) / shortest_m : 0.0;
   envelope.strain_allowance = spring_capacity_N_per_strain > 0.0
                                   ? largest_force_N / spring_capacity_N_per_strain + kinematic_strain
                                   : std::numeric_limits<double>::infinity();

@@ -76,6 +76,8 @@ struct EnvelopeInputs {
   const StiffnessBound& bound;  ///< of the scene as it is now
   /// The bodies that move the cloth by prescription (pins' hooks, spheres): their peak speeds over the frame.
   const Kinematics& kinematics;
+  /// Zero for particles the cloth's bodies hold (pins, gripped): contacts leave them alone.
+  const Eigen::VectorXd& inverse_mass_per_kg;
   double energy_before_J = 0.0;  ///< total energy at the frame's start (Simulation::totalEnergy_J)
   double kinetic_J = 0.0;        ///< its kinetic part
   double elastic_J = 0.0;        ///< its springs' part
@@ -85,9 +87,11 @@ struct EnvelopeInputs {
 /// The energy and strain budgets of the frame about to be computed. The energy allowance: a slack of the
 /// scene's energy scale (weight over its extent, the kinetic energy of its fastest input -- wind or body
 /// --, the motion, stretch and hands it already has), the work the bodies can do moving held or touched
-/// particles against their springs within the frame, the wind's work, and rounding. The strain allowance:
-/// what the scene's largest force can stretch a structural spring, plus what the fastest body can carry a
-/// particle within the frame.
+/// particles against their springs within the frame (a particle that starts the frame inside a link,
+/// placed there by its first pose, is pushed out by its depth as if the link had travelled that far), the
+/// wind's work, and rounding. The strain allowance: what the scene's largest force can stretch a
+/// structural spring, plus what the fastest body can carry a particle, or push one out of a link, within
+/// the frame.
 FrameEnvelope frameEnvelope(const EnvelopeInputs& scene);
 
 /// What `auto` remembers between frames, so that it does not start every frame from the same too-small
