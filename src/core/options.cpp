@@ -5,8 +5,12 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdlib>
+#include <limits>
 #include <set>
 #include <sstream>
+#include <string>
+#include <type_traits>
 
 namespace cloth_sim::core {
 
@@ -17,20 +21,43 @@ constexpr double kUnitTolerance = 1e-6;
 /// Most characters of a pin selector quoted in an error (it may come from any file given to ~load_scene).
 constexpr std::size_t kMaxQuotedSelectorChars = 32;
 
+/// A refused value as written: the fewest significant digits that read back as the same double, so a
+/// value just past a limit never prints as the limit itself (1000001 is not "1e+06").
+std::string valueText(double value) {
+  constexpr int kDefaultDigits = 6;  // what a stream prints unasked
+  std::ostringstream out;
+  for (int digits = kDefaultDigits; digits <= std::numeric_limits<double>::max_digits10; ++digits) {
+    out.str("");
+    out.precision(digits);
+    out << value;
+    if (std::strtod(out.str().c_str(), nullptr) == value) break;
+  }
+  return out.str();
+}
+
+template <typename T>
+std::string valueText(T value) {
+  if constexpr (std::is_floating_point_v<T>) {
+    return valueText(static_cast<double>(value));
+  } else {
+    return std::to_string(value);
+  }
+}
+
 class Problems {
  public:
   template <typename T>
   void inRange(const std::string& field, T value, T low, T high) {
     if (std::isfinite(static_cast<double>(value)) && value >= low && value <= high) return;
     std::ostringstream out;
-    out << field << " = " << value << ": must be in [" << low << ", " << high << "]";
+    out << field << " = " << valueText(value) << ": must be in [" << low << ", " << high << "]";
     list_.push_back(out.str());
   }
 
   void positive(const std::string& field, double value, double high) {
     if (std::isfinite(value) && value > 0.0 && value <= high) return;
     std::ostringstream out;
-    out << field << " = " << value << ": must be in (0, " << high << "]";
+    out << field << " = " << valueText(value) << ": must be in (0, " << high << "]";
     list_.push_back(out.str());
   }
 

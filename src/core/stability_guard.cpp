@@ -301,8 +301,10 @@ FrameEnvelope frameEnvelope(const EnvelopeInputs& scene) {
   const double shortest_m = rest_m.empty() ? 0.0 : *std::min_element(rest_m.begin(), rest_m.end());
   const double spring_capacity_N_per_strain = structural.enabled ? structural.stiffness_N_per_m * shortest_m : 0.0;
   // Bodies move particles by hand: in a frame they can stretch a spring by their travel.
+  // A spring's two ends can be pushed out of a link in opposite directions (a link through the cloth's
+  // plane pushes each particle out radially): twice the deepest push.
   const double kinematic_strain =
-      shortest_m > 0.0 ? (kinematic_speed_m_per_s * frame_s + deepest_push_m) / shortest_m : 0.0;
+      shortest_m > 0.0 ? (kinematic_speed_m_per_s * frame_s + 2.0 * deepest_push_m) / shortest_m : 0.0;
   envelope.strain_allowance = spring_capacity_N_per_strain > 0.0
                                   ? largest_force_N / spring_capacity_N_per_strain + kinematic_strain
                                   : std::numeric_limits<double>::infinity();

@@ -62,13 +62,16 @@ void MouseDrag::onFeedback(const visualization_msgs::InteractiveMarkerFeedbackCo
   if (feedback->event_type == Feedback::MOUSE_DOWN) {
     if (!feedback->mouse_point_valid) return;  // clicked beside the cloth: nothing to pick
     grab_point_m_ = toEigen(feedback->mouse_point);
+    grab_frame_ = feedback->header.frame_id;
     marker_at_grab_m_ = marker_m;
     dragging_ = true;
     particle_ = pick_(grab_point_m_);
     cloth_sim::Grasp grab = graspMessage(feedback->header, cloth_sim::Grasp::GRAB);
     grab.target = feedback->mouse_point;
     grasp_(grab);
-  } else if (feedback->event_type == Feedback::POSE_UPDATE && dragging_) {
+  } else if (feedback->event_type == Feedback::POSE_UPDATE && dragging_ && feedback->header.frame_id == grab_frame_) {
+    // Only in the grab's frame: rviz sends a whole drag in its fixed frame, and a grab the node dropped
+    // (a frame tf does not know) must not be made good by updates in another frame.
     cloth_sim::Grasp drag = graspMessage(feedback->header, cloth_sim::Grasp::GRAB);
     const Eigen::Vector3d target_m = grab_point_m_ + (marker_m - marker_at_grab_m_);
     drag.target.x = target_m.x();

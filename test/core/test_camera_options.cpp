@@ -44,6 +44,12 @@ TEST(CameraOptions, BadIntrinsicsAreRefusedByName) {
   SceneOptions options = withCamera(camera);
   EXPECT_EQ(problemAbout(options, "cameras[0].fx"), "cameras[0].fx = 0: must be in (0, 1e+06]");
   EXPECT_EQ(problemAbout(options, "cameras[0].fy"), "cameras[0].fy = -525: must be in (0, 1e+06]");
+  // A value just past a limit is printed with the digits that tell it from the limit.
+  camera.fx_px = 1000001.0;
+  camera.fy_px = 1e6 * (1.0 + 1e-15);
+  options = withCamera(camera);
+  EXPECT_EQ(problemAbout(options, "cameras[0].fx"), "cameras[0].fx = 1000001: must be in (0, 1e+06]");
+  EXPECT_EQ(problemAbout(options, "cameras[0].fy"), "cameras[0].fy = 1000000.0000000012: must be in (0, 1e+06]");
 
   camera = namedCamera();
   camera.width = 0;

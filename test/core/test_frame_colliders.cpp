@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <string>
+#include <utility>
 
 namespace cloth_sim::core {
 namespace {
@@ -135,10 +136,11 @@ TEST_P(LinkSweep, ALinkWhoseFirstPoseIsThroughTheClothPushesItOutAndTheClothRuns
   // without a sweep. The frame that pushes the particles out is the link's work, not a gain the guard
   // must roll back (it did, and the recovery's reset started the cloth inside the link again, every third
   // frame for good). Through the cloth's plane (y = 0) at the centre, and off it by half the radius.
-  for (const double y_m : {0.0, 0.05}) {
+  // A 10 cm ball, and a 30 cm one whose pushes tear the springs across its middle apart (a strain of 8).
+  for (const auto& [radius_m, y_m] : {std::pair{0.1, 0.0}, std::pair{0.1, 0.05}, std::pair{0.3, 0.0}}) {
     FrameCollider ball;
     ball.frame = "wrist";
-    ball.radius_m = 0.1;
+    ball.radius_m = radius_m;
     Simulation sim(hangingWithLink(ball, GetParam()));
     Pose pose;
     pose.position_m = Eigen::Vector3d(0.0, y_m, 1.0);
@@ -151,7 +153,7 @@ TEST_P(LinkSweep, ALinkWhoseFirstPoseIsThroughTheClothPushesItOutAndTheClothRuns
     constexpr int kFrames = 25;
     for (int k = 0; k < kFrames; ++k) {
       const FrameReport report = sim.advanceFrame();
-      ASSERT_TRUE(report.stable) << "y " << y_m << ", frame " << k << ": " << report.reason;
+      ASSERT_TRUE(report.stable) << "radius " << radius_m << ", y " << y_m << ", frame " << k << ": " << report.reason;
       ASSERT_FALSE(report.scene_reset) << report.reason;
       EXPECT_TRUE(report.recovery.empty()) << report.recovery;
     }
@@ -160,7 +162,7 @@ TEST_P(LinkSweep, ALinkWhoseFirstPoseIsThroughTheClothPushesItOutAndTheClothRuns
     EXPECT_LE(maxFrameColliderPenetration(sim.options().colliders.frames, sim.frameColliders(), sim.state().time_s,
                                           sim.state().positions_m),
               sim.options().contact.depth_m * (1 + 1e-9))
-        << "y " << y_m;
+        << "radius " << radius_m << ", y " << y_m;
   }
 }
 

@@ -25,6 +25,7 @@ DRAG = (0.0, 0.3, 0.3)  # m, world frame: how far the mouse moves the marker
 # The mouse's grasp uses the scene's grasp_stiffness, 50 N/m: holding part of the cloth's 4.9 N weight it
 # sits up to 0.1 m short of the target; 0.15 m leaves room for the swing. The corner starts 0.42 m away.
 TOLERANCE_M = 0.15
+NOT_FOLLOWED_S = 5.0  # s: a grab follows the mouse within a second or two (the test below)
 CLIENT_ID = "/test_mouse_drag"
 
 
@@ -75,6 +76,27 @@ class MouseDrag(unittest.TestCase):
             message.mouse_point = mouse_point
             message.mouse_point_valid = True
         return message
+
+    def test_a_drag_whose_mouse_down_was_dropped_grabs_nothing(self):
+        # The mouse-down names a frame tf does not know, so the node drops its grab; pose updates in
+        # another frame must not grab the cloth after all (they did: the corner followed them).
+        deadline = time.monotonic() + DEADLINE_S
+        while time.monotonic() < deadline and self.feedback.get_num_connections() == 0:
+            time.sleep(0.05)
+        start = self.states.wait_for(lambda s: True)
+        self.assertIsNotNone(start, "no ~state")
+        corner = start.positions[CORNER]
+        clicked = Point(corner.x + 0.01, corner.y, corner.z + 0.01)
+        target = Point(clicked.x + DRAG[0], clicked.y + DRAG[1], clicked.z + DRAG[2])
+        down = self.feedback_message(InteractiveMarkerFeedback.MOUSE_DOWN, mouse_point=clicked)
+        down.header.frame_id = "no_such_frame"
+        self.feedback.publish(down)
+        drag = self.feedback_message(InteractiveMarkerFeedback.POSE_UPDATE, marker_position=DRAG)
+        # The same wait in which the test below sees the corner follow a drag.
+        followed = self.states.wait_for(lambda s: distance(s.positions[CORNER], target) < TOLERANCE_M,
+                                        deadline_s=NOT_FOLLOWED_S, keep_doing=lambda: self.feedback.publish(drag))
+        self.feedback.publish(self.feedback_message(InteractiveMarkerFeedback.MOUSE_UP, marker_position=DRAG))
+        self.assertIsNone(followed, "the corner followed a drag whose grab was dropped")
 
     def test_click_drag_and_let_go_moves_the_clicked_particle(self):
         deadline = time.monotonic() + DEADLINE_S

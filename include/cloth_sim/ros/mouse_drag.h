@@ -54,6 +54,7 @@ class MouseDrag {
   bool dragging_ = false;
   /// Where the mouse went down (in the marker's frame) and where the marker stood then.
   Eigen::Vector3d grab_point_m_ = Eigen::Vector3d::Zero();
+  std::string grab_frame_;  ///< the frame of the mouse-down that began the drag
   Eigen::Vector3d marker_at_grab_m_ = Eigen::Vector3d::Zero();
   ros::Time last_shape_;
 };
