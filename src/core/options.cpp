@@ -5,8 +5,8 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
-#include <limits>
 #include <set>
 #include <sstream>
 #include <string>
@@ -21,24 +21,13 @@ constexpr double kUnitTolerance = 1e-6;
 /// Most characters of a pin selector quoted in an error (it may come from any file given to ~load_scene).
 constexpr std::size_t kMaxQuotedSelectorChars = 32;
 
-/// A refused value as written: the fewest significant digits that read back as the same double, so a
-/// value just past a limit never prints as the limit itself (1000001 is not "1e+06").
-std::string valueText(double value) {
-  constexpr int kDefaultDigits = 6;  // what a stream prints unasked
-  std::ostringstream out;
-  for (int digits = kDefaultDigits; digits <= std::numeric_limits<double>::max_digits10; ++digits) {
-    out.str("");
-    out.precision(digits);
-    out << value;
-    if (std::strtod(out.str().c_str(), nullptr) == value) break;
-  }
-  return out.str();
-}
-
+/// A refused value as written: exact, so that a value just past a limit never prints as the limit
+/// itself (1000001 is not "1e+06"), with as few digits as a stream prints unasked where they suffice.
 template <typename T>
 std::string valueText(T value) {
+  constexpr int kStreamDigits = 6;
   if constexpr (std::is_floating_point_v<T>) {
-    return valueText(static_cast<double>(value));
+    return exactNumberText(static_cast<double>(value), kStreamDigits);
   } else {
     return std::to_string(value);
   }
@@ -215,6 +204,17 @@ std::string textLengthProblem(const std::string& field, const std::string& value
   if (value.size() <= OptionLimits::kMaxTextChars) return "";
   return field + ": " + std::to_string(value.size()) + " characters: at most " +
          std::to_string(OptionLimits::kMaxTextChars);
+}
+
+std::string exactNumberText(double value, int fewest_digits) {
+  constexpr int kRoundTripDigits = 17;  // std::numeric_limits<double>::max_digits10: always enough
+  char text[32];
+  for (int digits = std::clamp(fewest_digits, 1, kRoundTripDigits); digits <= kRoundTripDigits; ++digits) {
+    std::snprintf(text, sizeof(text), "%.*g", digits, value);
+    const double read = std::strtod(text, nullptr);
+    if (read == value && std::signbit(read) == std::signbit(value)) break;
+  }
+  return text;
 }
 
 std::vector<std::string> validateSceneOptions(const SceneOptions& o) {

@@ -533,18 +533,12 @@ bool loadSceneFile(const std::string& path, SceneOptions* options, std::vector<s
 namespace {
 
 /// The shortest decimal (15 to 17 significant digits) that reads back to the same bits: 17 always do;
-/// fewer keep 0.1 readable as 0.1.
+/// fewer keep 0.1 readable as 0.1. YAML spells the non-finite ones.
 std::string exactNumber(double value) {
   if (std::isnan(value)) return ".nan";
   if (std::isinf(value)) return value > 0.0 ? ".inf" : "-.inf";
   constexpr int kFewestDigits = 15;
-  constexpr int kRoundTripDigits = 17;
-  char text[32];
-  for (int digits = kFewestDigits; digits <= kRoundTripDigits; ++digits) {
-    std::snprintf(text, sizeof(text), "%.*g", digits, value);
-    if (std::strtod(text, nullptr) == value && std::signbit(std::strtod(text, nullptr)) == std::signbit(value)) break;
-  }
-  return text;
+  return exactNumberText(value, kFewestDigits);
 }
 
 void emitVector(YAML::Emitter& out, const Eigen::Vector3d& v) {

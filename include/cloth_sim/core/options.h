@@ -225,6 +225,11 @@ std::vector<std::uint8_t> outlineMask(const SceneOptions& options);
 void buildCurvatureBending(const SceneOptions& options, CurvatureBending* curvature,
                            const std::vector<std::uint8_t>& active = {});
 
+/// A number as it is written where it must read back exactly (a refused value, a saved scene): the fewest
+/// significant digits, from fewest_digits up to 17, that read back as the same double, sign of zero
+/// included, in printf's %g form ("nan", "inf" as printf spells them).
+std::string exactNumberText(double value, int fewest_digits);
+
 /// Every problem with the options, each naming the field, its value and the allowed range, e.g.
 /// "substeps = 0: must be in [1, 10000]". Empty when the options are valid.
 std::vector<std::string> validateSceneOptions(const SceneOptions& options);
