@@ -166,14 +166,17 @@ struct SceneOptions {
   /// A frame the guard rejects is recomputed with 2x, 4x, 8x the substeps before it is rolled back;
   /// false: computed once (fixed-step accuracy runs, tests), rejected frames still rolled back and reported.
   bool guard_retries = true;
-  /// A cloth at rest is no longer computed (it sleeps, as PhysX's and NvCloth's cloths do) once no particle
-  /// has moved faster than this, m/s, for kSleepAfter_s in a row while nothing drove it: every hook,
+  /// A cloth at rest is no longer computed (it sleeps, as PhysX's and NvCloth's cloths do) once for
+  /// kSleepAfter_s in a row no particle has got further than this, m/s, times kSleepAfter_s from where it
+  /// was when they began (Simulation::sleepAllowance_m), while nothing drove it: every hook,
   /// sphere, gripper and frame collider held still, the wind had no gusts and no input changed. Anything
   /// that drives it again wakes it before the frame is computed. 0: never sleeps.
   double sleep_speed_m_per_s = kDefaultSleepSpeed_m_per_s;
-  /// 0.1 mm/s: 2 um a frame at 50 Hz, far below what a picture shows and 10x below the creep the
+  /// 0.1 mm/s: 50 um over kSleepAfter_s, far below what a picture shows and 10x below the creep the
   /// self-collision tests allow a resting towel (1 mm/s). A folded 64 x 64 towel comes to an exact rest
-  /// (1e-15 m/s) about 1 s after it is let go; a cloth still creeping faster keeps being computed.
+  /// (1e-15 m/s) about 1 s after it is let go, or, folded by the node's hands (a frame late), into a
+  /// limit cycle of 13 um a frame that stays within 50 um; a cloth still creeping faster keeps being
+  /// computed.
   static constexpr double kDefaultSleepSpeed_m_per_s = 1e-4;
   /// How long the cloth must stay below sleep_speed before it sleeps, s of simulated time: longer than a
   /// swing's turning point or a bounce's top (where a moving cloth stops for a frame or two).
