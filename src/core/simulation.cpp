@@ -255,7 +255,8 @@ int Simulation::frameAutoScale() const {
   // (counted calm, its last frame still to within sleep_speed): it wakes at one substep anyway, and the
   // trial itself may stir it (a folded towel's fold line sags up to kTrialSettle_m at one step, and the
   // guard refines it back to two). A cloth calm only by its anchor (a contact's limit cycle jittering
-  // within sleepAllowance_m) still tries: a trial the guard refines is recomputed and stirs nothing.
+  // within sleepAllowance_m) still tries: a trial the guard refines is recomputed and stirs nothing, and
+  // one it keeps (moving the cloth up to kTrialSettle_m) starts the calm frames again, once per halving.
   const bool on_its_way_to_sleep =
       memory_.calm_frames > 0 && memory_.frame_motion_m_per_s <= options_.sleep_speed_m_per_s;
   const bool trial = memory_.auto_scale > 1 && options_.guard_retries && !on_its_way_to_sleep &&
@@ -442,7 +443,8 @@ FrameReport Simulation::advanceFrame() {
     memory_.consecutive_rollbacks = 0;
     // Calm: nothing drove the cloth, nothing changed since the frame before, and it stood still. A frame
     // with a crossing the self-collision could not prevent is never calm (the guard must keep seeing it).
-    countCalmFrame(!driven && drive == memory_.drive_fingerprint && report.self_collision.forced == 0);
+    countCalmFrame(!driven && drive == memory_.drive_fingerprint && report.self_collision.forced == 0,
+                   motion_m_per_s * options_.frameDuration_s());
     memory_.drive_fingerprint = drive;
   } else if (++memory_.consecutive_rollbacks >= GuardMemory::kRollbacksBeforeRecovery) {
     accepted = recover(envelope, &report);
@@ -524,18 +526,25 @@ double Simulation::sleepAllowance_m(const SceneOptions& options) {
   return options.sleep_speed_m_per_s * SceneOptions::kSleepAfter_s;
 }
 
-void Simulation::countCalmFrame(bool still_inputs) {
+void Simulation::countCalmFrame(bool still_inputs, double step_m) {
+  const int asleep_from = sleepAfterFrames(options_);
   bool calm = options_.sleep_speed_m_per_s > 0.0 && still_inputs;
   if (calm) {
     const Eigen::Matrix3Xd& anchor = memory_.calm_frames > 0 ? memory_.calm_anchor_m : frame_start_.positions_m;
     calm = (state_.positions_m - anchor).colwise().norm().maxCoeff() <= sleepAllowance_m(options_);
+  }
+  if (calm && memory_.calm_frames >= asleep_from) {
+    calm = step_m <= memory_.calm_largest_step_m + options_.sleep_speed_m_per_s * options_.frameDuration_s();
   }
   if (!calm) {
     memory_.forgetCalm();
     return;
   }
   if (memory_.calm_frames == 0) memory_.calm_anchor_m = frame_start_.positions_m;
-  memory_.calm_frames = std::min(memory_.calm_frames + 1, sleepAfterFrames(options_));
+  if (memory_.calm_frames >= asleep_from / 2 && memory_.calm_frames < asleep_from) {
+    memory_.calm_largest_step_m = std::max(memory_.calm_largest_step_m, step_m);
+  }
+  memory_.calm_frames = std::min(memory_.calm_frames + 1, asleep_from);
 }
 
 int Simulation::sleepCheckFrames(const SceneOptions& options) {
@@ -842,15 +851,17 @@ bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error)
               std::to_string(guard.calm_frames) + " (0 to " + std::to_string(sleepAfterFrames(options)) + ")";
   }
   if (problem.empty()) {
-    // Calm frames are measured from their anchor: one position per particle while there are any.
+    // Calm frames are measured from their anchor: one position per particle while there are any, none
+    // else. A frame's step within the calm frames is at most twice the allowance (both ends within it).
+    const bool calm = guard.calm_frames > 0;
     const Eigen::Index particles = static_cast<Eigen::Index>(options.rows) * options.cols;
-    const Eigen::Index anchor_columns = guard.calm_frames > 0 ? particles : 0;
-    if (guard.calm_anchor_m.cols() != anchor_columns || !guard.calm_anchor_m.allFinite() ||
-        (guard.calm_anchor_m.size() > 0 && guard.calm_anchor_m.cwiseAbs().maxCoeff() > OptionLimits::kMaxCoordinate_m)) {
-      problem = "guard memory: the calm frames' anchor holds " + std::to_string(guard.calm_anchor_m.cols()) +
-                " positions for " + std::to_string(guard.calm_frames) + " calm frames (one per particle, " +
-                std::to_string(particles) + ", while there are any; finite, within " +
-                exactNumberText(OptionLimits::kMaxCoordinate_m, 6) + " m)";
+    problem = checkColumns("guard memory: the calm frames' anchor (one position per particle while there are calm frames, else none)",
+                           guard.calm_anchor_m, calm ? particles : 0, Simulation::kDivergenceBound_m);
+    const double most_step_m = calm ? 2.0 * sleepAllowance_m(options) : 0.0;
+    if (problem.empty() && !(guard.calm_largest_step_m >= 0.0 && guard.calm_largest_step_m <= most_step_m)) {
+      problem = "guard memory: the calm frames' largest step " + exactNumberText(guard.calm_largest_step_m, 6) +
+                " m: must be in [0, " + exactNumberText(most_step_m, 6) + "] (twice sleep_speed x " +
+                exactNumberText(SceneOptions::kSleepAfter_s, 6) + " s while there are calm frames, else 0)";
     }
   }
   if (problem.empty()) problem = startsInsideCollider(options);  // a recovery's reset would start it there

@@ -34,7 +34,7 @@ constexpr char kLinksTag[4] = {'L', 'I', 'N', 'K'};     ///< ClothInputs::frame_
 constexpr char kMotionTag[4] = {'C', 'A', 'L', 'M'};    ///< GuardMemory::frame_motion_m_per_s (version 4 on)
 constexpr char kSleepTag[4] = {'S', 'L', 'E', 'P'};     ///< GuardMemory's calm frames and drive (version 5 on)
 constexpr char kLastTag[4] = {'L', 'A', 'S', 'T'};      ///< the saved frame's substeps (version 6 on)
-constexpr char kAnchorTag[4] = {'A', 'N', 'C', 'H'};    ///< GuardMemory::calm_anchor_m (version 7 on)
+constexpr char kAnchorTag[4] = {'A', 'N', 'C', 'H'};    ///< calm_largest_step_m, calm_anchor_m (version 7 on)
 constexpr std::size_t kSectionCount = 10;
 /// How many of the sections above a file of each version holds (index: the version, 1 up to
 /// StateFileFormat::kVersion): version 1 files end after the inputs, version 2 files after the guard's
@@ -312,6 +312,7 @@ std::string encodeLast(int last_frame_substeps) {
 
 std::string encodeAnchor(const GuardMemory& guard) {
   Writer out;
+  out.put(guard.calm_largest_step_m);
   out.put(static_cast<std::uint64_t>(guard.calm_anchor_m.cols()));
   out.putColumns(guard.calm_anchor_m);
   return out.bytes();
@@ -392,12 +393,12 @@ int decodeLast(const std::string& bytes) {
   return substeps;
 }
 
-Eigen::Matrix3Xd decodeAnchor(const std::string& bytes) {
+void decodeAnchor(const std::string& bytes, GuardMemory* guard) {
   Reader in(bytes.data(), bytes.size(), "anchor section");
+  guard->calm_largest_step_m = in.get<double>();
   const std::size_t count = in.getCount(3 * sizeof(double), kMaxParticles, "anchor positions");
-  Eigen::Matrix3Xd anchor = in.getColumns(count);
+  guard->calm_anchor_m = in.getColumns(count);
   in.expectEnd();
-  return anchor;
 }
 
 GuardMemory decodeGuard(const std::string& bytes) {
@@ -523,10 +524,10 @@ bool decodeStateFile(const std::string& bytes, SimulationSnapshot* snapshot, std
     if (version >= 5) decodeSleep(parts[7], &read.guard);
     if (version >= 6) read.last_frame_substeps = decodeLast(parts[8]);
     if (version >= 7) {
-      read.guard.calm_anchor_m = decodeAnchor(parts[9]);
+      decodeAnchor(parts[9], &read.guard);
     } else if (read.guard.calm_frames > 0) {
       // Older files counted calm frames frame to frame, with no anchor: one that was calm is seen at rest
-      // from where it was saved.
+      // from where it was saved, each frame of its rest within sleep_speed (a largest step of 0).
       read.guard.calm_anchor_m = read.state.positions_m;
     }
     const int particles = read.options.rows * read.options.cols;

@@ -188,7 +188,8 @@ bool sameTrack(const PoseTrack& a, const PoseTrack& b) {
   }
   if (a.guard.auto_scale != b.guard.auto_scale || a.guard.consecutive_rollbacks != b.guard.consecutive_rollbacks ||
       !sameBits(a.guard.frame_motion_m_per_s, b.guard.frame_motion_m_per_s) ||
-      a.guard.calm_frames != b.guard.calm_frames || a.guard.drive_fingerprint != b.guard.drive_fingerprint) {
+      a.guard.calm_frames != b.guard.calm_frames || a.guard.drive_fingerprint != b.guard.drive_fingerprint ||
+      !sameBits(a.guard.calm_largest_step_m, b.guard.calm_largest_step_m)) {
     return ::testing::AssertionFailure() << "guard memory differs";
   }
   if (!sameMatrixBits(a.guard.calm_anchor_m, b.guard.calm_anchor_m)) {
@@ -433,6 +434,23 @@ TEST(Restore, InvalidOptionsAreRefusedByName) {
   expectRefused([](SimulationSnapshot& s) { s.guard.frame_motion_m_per_s = -1.0; }, "guard memory");
   expectRefused([](SimulationSnapshot& s) { s.guard.calm_frames = -1; }, "guard memory");
   expectRefused([](SimulationSnapshot& s) { s.guard.calm_frames = Simulation::sleepAfterFrames(s.options) + 1; }, "guard memory");
+  // The calm frames' anchor: one finite position per particle while there are calm frames, none else;
+  // their largest step within twice the allowance, 0 while there are none.
+  const auto calm = [](SimulationSnapshot& s) {
+    s.guard.calm_frames = 3;
+    s.guard.calm_anchor_m = s.state.positions_m;
+  };
+  expectRefused([](SimulationSnapshot& s) { s.guard.calm_anchor_m = s.state.positions_m; }, "anchor (one position");
+  expectRefused([](SimulationSnapshot& s) { s.guard.calm_frames = 3; }, "anchor (one position");
+  expectRefused([&](SimulationSnapshot& s) { calm(s); s.guard.calm_anchor_m(1, 7) = kNaN; }, "anchor (one position per particle while there are calm frames, else none)[7]");
+  expectRefused([&](SimulationSnapshot& s) { calm(s); s.guard.calm_anchor_m(2, 0) = 2e3; }, "anchor (one position per particle while there are calm frames, else none)[0]");
+  expectRefused([&](SimulationSnapshot& s) { calm(s); s.guard.calm_largest_step_m = -1e-9; }, "largest step");
+  expectRefused([&](SimulationSnapshot& s) { calm(s); s.guard.calm_largest_step_m = kNaN; }, "largest step");
+  expectRefused([&](SimulationSnapshot& s) {
+    calm(s);
+    s.guard.calm_largest_step_m = 2.0 * Simulation::sleepAllowance_m(s.options) * (1.0 + 1e-12);
+  }, "largest step");
+  expectRefused([](SimulationSnapshot& s) { s.guard.calm_largest_step_m = 1e-6; }, "largest step");
   expectRefused([](SimulationSnapshot& s) { s.options.springs[0].stiffness_N_per_m = kNaN; }, "stiffness");
 }
 
@@ -778,9 +796,10 @@ constexpr std::size_t kMotionSectionBytes = 4 + 8 + 8;
 constexpr std::size_t kSleepSectionBytes = 4 + 8 + 4 + 8;
 /// The LAST section (version 6 on): a tag, an 8-byte length and the saved frame's substeps (int32).
 constexpr std::size_t kLastSectionBytes = 4 + 8 + 4;
-/// The ANCH section (version 7 on): a tag, an 8-byte length, a count (uint64) and the anchor's positions.
+/// The ANCH section (version 7 on): a tag, an 8-byte length, the largest calm step (a double), a count
+/// (uint64) and the anchor's positions.
 std::size_t anchorSectionBytes(const SimulationSnapshot& snapshot) {
-  return 4 + 8 + 8 + 3 * sizeof(double) * static_cast<std::size_t>(snapshot.guard.calm_anchor_m.cols());
+  return 4 + 8 + 8 + 8 + 3 * sizeof(double) * static_cast<std::size_t>(snapshot.guard.calm_anchor_m.cols());
 }
 
 /// bytes, an encoded file, cut to its first `version`'s sections: the last `cut` bytes dropped.
@@ -831,9 +850,11 @@ TEST(StateFile, AVersion6FilesCalmClothCountsItsCalmFramesFromWhereItWasSaved) {
   SimulationSnapshot loaded;
   std::string error;
   ASSERT_TRUE(decodeStateFile(asOlderVersion(bytes, 6, anchor), &loaded, &error)) << error;
-  // Version 6 counted calm frames frame to frame and kept no anchor: the saved positions stand in for it.
+  // Version 6 counted calm frames frame to frame and kept no anchor: the saved positions stand in for it,
+  // and each of its calm frames moved less than sleep_speed in a frame (a largest step of 0).
   EXPECT_EQ(loaded.guard.calm_frames, saved.guard.calm_frames);
   saved.guard.calm_anchor_m = saved.state.positions_m;
+  saved.guard.calm_largest_step_m = 0.0;
   EXPECT_TRUE(sameSnapshot(saved, loaded));
   Simulation simulation(loaded.options);
   ASSERT_TRUE(simulation.restore(loaded, &error)) << error;
@@ -1054,10 +1075,10 @@ TEST(StateFile, SizesOfOrdinarySnapshots) {
     // Header, 10 section headers (tag + length), options text, state, inputs, guard memory (2 x int32),
     // grippers and frame colliders (a count of 0 each), the last frame's motion (a double), the calm
     // frames and the drive (an int32 and a uint64), the last frame's substeps (an int32), the calm frames'
-    // anchor (a count of 0: the cloth is not calm).
+    // largest step (a double) and anchor (a count of 0: the cloth is not calm).
     EXPECT_EQ(size, StateFileFormat::kHeaderBytes + 10 * 12 + sceneYaml(snapshot.options).size() +
                         (8 + 8 + 8 + 48 * static_cast<std::size_t>(side * side)) + (24 + 8 + 2 * 4 + 2 * 48 + 8) + 8 +
-                        8 + 8 + 8 + (4 + 8) + 4 + 8);
+                        8 + 8 + 8 + (4 + 8) + 4 + (8 + 8));
   }
 }
 

@@ -178,11 +178,13 @@ struct SceneOptions {
   /// limit cycle of 13 um a frame that stays within 50 um; a cloth still creeping faster keeps being
   /// computed.
   static constexpr double kDefaultSleepSpeed_m_per_s = 1e-4;
-  /// How long the cloth must stay below sleep_speed before it sleeps, s of simulated time: longer than a
-  /// swing's turning point or a bounce's top (where a moving cloth stops for a frame or two).
+  /// How long the cloth must stay within sleep_speed times this of where it was when it began to, before
+  /// it sleeps, s of simulated time: longer than a swing's turning point or a bounce's top (where a moving
+  /// cloth stops for a frame or two).
   static constexpr double kSleepAfter_s = 0.5;
   /// A sleeping cloth is still computed once per this period, s: a cloth that only seemed at rest (a hem
-  /// beginning to slide off a table's edge, creeping under sleep_speed at first) is seen to move and wakes.
+  /// beginning to slide off a table's edge) is seen to move further in that frame than its rest did
+  /// (GuardMemory::calm_largest_step_m) and wakes.
   static constexpr double kSleepCheckPeriod_s = 1.0;
   SolverOptions solver;         ///< implicit_euler's linear solve: tolerance and iteration cap per step
   /// Threads for the force kernels and the solver on grids of 4096 particles or more. 1 by default: on

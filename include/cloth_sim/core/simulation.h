@@ -285,10 +285,12 @@ class Simulation {
   bool sleepsThrough(bool driven, std::uint64_t drive) const;
   /// Advances time and frame number over a frame the cloth sleeps through; *report says so.
   void sleepThroughFrame(FrameReport* report);
-  /// Counts the frame just accepted as calm or not (GuardMemory::calm_frames and calm_anchor_m): calm if
-  /// nothing drove it (`still_inputs`) and no particle is further than sleepAllowance_m() from the calm
-  /// frames' anchor (this frame's start for the first).
-  void countCalmFrame(bool still_inputs);
+  /// Counts the frame just accepted as calm or not (GuardMemory::calm_frames, calm_anchor_m and
+  /// calm_largest_step_m): calm if nothing drove it (`still_inputs`) and no particle is further than
+  /// sleepAllowance_m() from the calm frames' anchor (this frame's start for the first), and, for the
+  /// check frame of a sleeping cloth, no particle moved further in it (`step_m`, m) than its rest did plus
+  /// what sleep_speed moves in a frame.
+  void countCalmFrame(bool still_inputs, double step_m);
   /// Runs one frame in the given number of substeps from the current state; adds the integrator's work
   /// to *steps.
   ContactStats integrateFrame(int substeps, StepReport* steps, SelfCollisionStats* self_collision);

@@ -121,10 +121,18 @@ struct GuardMemory {
   /// settle into a limit cycle of its contacts' friction, a particle on the floor flipping 13 um to and
   /// fro every frame for good (0.6 mm/s frame to frame, nowhere in a second), and never slept.
   Eigen::Matrix3Xd calm_anchor_m;
+  /// The farthest any particle moved in one frame over the second half of the calm frames before the
+  /// cloth fell asleep, m (0 while there are none): how much a frame of its rest may move. A sleeping cloth
+  /// is computed once a second, and one frame cannot tell a jitter from the start of a slide: a check frame
+  /// that moves further than this plus what sleep_speed moves in a frame wakes it, so a cloth that came to
+  /// an exact rest wakes on the first check frame once it slides faster than sleep_speed. The first half of the calm frames is left
+  /// out: a cloth arriving at rest may still move up to the allowance in its first calm frame.
+  double calm_largest_step_m = 0.0;
   /// No calm frames counted (and so no anchor): the cloth must be seen at rest again before it sleeps.
   void forgetCalm() {
     calm_frames = 0;
     calm_anchor_m.resize(3, 0);
+    calm_largest_step_m = 0.0;
   }
   /// What drove the last frame (Simulation's fingerprint of the inputs): a frame that starts with another
   /// one is computed, and counts as calm only from the next frame on.
