@@ -176,7 +176,7 @@ bool Simulation::restoreState(const ClothState& state, std::string* error) {
   current.state = state;
   // The last frame's motion was the old state's: the new one has not been seen moving.
   current.guard.frame_motion_m_per_s = GuardMemory().frame_motion_m_per_s;
-  current.guard.calm_frames = 0;
+  current.guard.forgetCalm();
   current.last_frame_substeps = 0;  // nor was it computed here
   return restore(current, error);
 }
@@ -252,9 +252,14 @@ bool Simulation::isCalm(double motion_m_per_s, double strain) {
 int Simulation::frameAutoScale() const {
   // Only a calm cloth tries fewer substeps: one in motion (a flag in the wind, a cloth a hand drags) is
   // what needed them, and a trial there would only cost a recomputation. Nor one on its way to sleep
-  // (calm_frames above 0): it wakes at one substep anyway, and the trial itself may stir it (a folded
-  // towel's fold line sags up to kTrialSettle_m at one step, and the guard refines it back to two).
-  const bool trial = memory_.auto_scale > 1 && options_.guard_retries && memory_.calm_frames == 0 &&
+  // (counted calm, its last frame still to within sleep_speed): it wakes at one substep anyway, and the
+  // trial itself may stir it (a folded towel's fold line sags up to kTrialSettle_m at one step, and the
+  // guard refines it back to two). A cloth calm only by its anchor (a contact's limit cycle jittering
+  // within sleepAllowance_m) still tries: a trial the guard refines is recomputed and stirs nothing, and
+  // one it keeps (moving the cloth up to kTrialSettle_m) starts the calm frames again, once per halving.
+  const bool on_its_way_to_sleep =
+      memory_.calm_frames > 0 && memory_.frame_motion_m_per_s <= options_.sleep_speed_m_per_s;
+  const bool trial = memory_.auto_scale > 1 && options_.guard_retries && !on_its_way_to_sleep &&
                      (state_.frame + 1) % GuardMemory::kScaleTrialFrames == 0 &&
                      isCalm(memory_.frame_motion_m_per_s, maxStructuralStrain());
   return trial ? memory_.auto_scale / 2 : memory_.auto_scale;
@@ -438,16 +443,15 @@ FrameReport Simulation::advanceFrame() {
     memory_.consecutive_rollbacks = 0;
     // Calm: nothing drove the cloth, nothing changed since the frame before, and it stood still. A frame
     // with a crossing the self-collision could not prevent is never calm (the guard must keep seeing it).
-    const bool calm = options_.sleep_speed_m_per_s > 0.0 && !driven && drive == memory_.drive_fingerprint &&
-                      motion_m_per_s <= options_.sleep_speed_m_per_s && report.self_collision.forced == 0;
-    memory_.calm_frames = calm ? std::min(memory_.calm_frames + 1, sleepAfterFrames(options_)) : 0;
+    countCalmFrame(!driven && drive == memory_.drive_fingerprint && report.self_collision.forced == 0,
+                   motion_m_per_s * options_.frameDuration_s());
     memory_.drive_fingerprint = drive;
   } else if (++memory_.consecutive_rollbacks >= GuardMemory::kRollbacksBeforeRecovery) {
     accepted = recover(envelope, &report);
   }
   std::ostringstream reason;
   if (!accepted) {
-    memory_.calm_frames = 0;
+    memory_.forgetCalm();
     report.stable = false;
     reason << "frame " << state_.frame + 1 << " (" << integratorName(options_.integrator) << ") " << report.rejection
            << ": rolled back to the previous frame";
@@ -518,6 +522,31 @@ int Simulation::sleepAfterFrames(const SceneOptions& options) {
   return std::max(1, static_cast<int>(std::ceil(SceneOptions::kSleepAfter_s * options.frame_rate_hz)));
 }
 
+double Simulation::sleepAllowance_m(const SceneOptions& options) {
+  return options.sleep_speed_m_per_s * SceneOptions::kSleepAfter_s;
+}
+
+void Simulation::countCalmFrame(bool still_inputs, double step_m) {
+  const int asleep_from = sleepAfterFrames(options_);
+  bool calm = options_.sleep_speed_m_per_s > 0.0 && still_inputs;
+  if (calm) {
+    const Eigen::Matrix3Xd& anchor = memory_.calm_frames > 0 ? memory_.calm_anchor_m : frame_start_.positions_m;
+    calm = (state_.positions_m - anchor).colwise().norm().maxCoeff() <= sleepAllowance_m(options_);
+  }
+  if (calm && memory_.calm_frames >= asleep_from) {
+    calm = step_m <= memory_.calm_largest_step_m + options_.sleep_speed_m_per_s * options_.frameDuration_s();
+  }
+  if (!calm) {
+    memory_.forgetCalm();
+    return;
+  }
+  if (memory_.calm_frames == 0) memory_.calm_anchor_m = frame_start_.positions_m;
+  if (memory_.calm_frames >= asleep_from / 2 && memory_.calm_frames < asleep_from) {
+    memory_.calm_largest_step_m = std::max(memory_.calm_largest_step_m, step_m);
+  }
+  memory_.calm_frames = std::min(memory_.calm_frames + 1, asleep_from);
+}
+
 int Simulation::sleepCheckFrames(const SceneOptions& options) {
   return std::max(1, static_cast<int>(std::ceil(SceneOptions::kSleepCheckPeriod_s * options.frame_rate_hz)));
 }
@@ -531,7 +560,7 @@ bool Simulation::sleepsThrough(bool driven, std::uint64_t drive) const {
 
 void Simulation::sleepThroughFrame(FrameReport* report) {
   // The cloth stood still for sleepAfterFrames frames under the same inputs, with nothing moving it:
-  // no particle moved more than sleep_speed times a frame's duration in any of them, so this frame is not
+  // no particle got further than sleepAllowance_m from where it was when they began, so this frame is not
   // computed and only time goes on. The substeps `auto` remembers, the gripper wrenches and the energies
   // stay those of the last computed frame, whose state this still is.
   report->asleep = true;
@@ -820,6 +849,20 @@ bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error)
               std::to_string(GuardMemory::kRollbacksBeforeRecovery) + "), last frame's motion " +
               std::to_string(guard.frame_motion_m_per_s) + " m/s (at least 0), calm frames " +
               std::to_string(guard.calm_frames) + " (0 to " + std::to_string(sleepAfterFrames(options)) + ")";
+  }
+  if (problem.empty()) {
+    // Calm frames are measured from their anchor: one position per particle while there are any, none
+    // else. A frame's step within the calm frames is at most twice the allowance (both ends within it).
+    const bool calm = guard.calm_frames > 0;
+    const Eigen::Index particles = static_cast<Eigen::Index>(options.rows) * options.cols;
+    problem = checkColumns("guard memory: the calm frames' anchor (one position per particle while there are calm frames, else none)",
+                           guard.calm_anchor_m, calm ? particles : 0, Simulation::kDivergenceBound_m);
+    const double most_step_m = calm ? 2.0 * sleepAllowance_m(options) : 0.0;
+    if (problem.empty() && !(guard.calm_largest_step_m >= 0.0 && guard.calm_largest_step_m <= most_step_m)) {
+      problem = "guard memory: the calm frames' largest step " + exactNumberText(guard.calm_largest_step_m, 6) +
+                " m: must be in [0, " + exactNumberText(most_step_m, 6) + "] (twice sleep_speed x " +
+                exactNumberText(SceneOptions::kSleepAfter_s, 6) + " s while there are calm frames, else 0)";
+    }
   }
   if (problem.empty()) problem = startsInsideCollider(options);  // a recovery's reset would start it there
   if (problem.empty() && (snapshot.last_frame_substeps < 0 || snapshot.last_frame_substeps > OptionLimits::kMaxSubsteps)) {

@@ -81,23 +81,19 @@ bool SweptPairFinder::hashBoxes(double reach_m) {
   return true;
 }
 
+template <typename Key>
+void SweptPairFinder::countOut(int count, const std::vector<std::pair<int, int>>& from, Key key,
+                               std::vector<std::pair<int, int>>* to) {
+  key_start_.assign(static_cast<std::size_t>(count) + 1, 0);
+  for (const auto& pair : from) ++key_start_[static_cast<std::size_t>(key(pair)) + 1];
+  for (std::size_t k = 0; k < static_cast<std::size_t>(count); ++k) key_start_[k + 1] += key_start_[k];
+  to->resize(from.size());
+  for (const auto& pair : from) (*to)[static_cast<std::size_t>(key_start_[static_cast<std::size_t>(key(pair))]++)] = pair;
+}
+
 void SweptPairFinder::sortPairs(int count, std::vector<std::pair<int, int>>* pairs) {
-  first_start_.assign(static_cast<std::size_t>(count) + 1, 0);
-  for (const auto& pair : *pairs) ++first_start_[static_cast<std::size_t>(pair.first) + 1];
-  for (std::size_t i = 0; i < static_cast<std::size_t>(count); ++i) first_start_[i + 1] += first_start_[i];
-  sorted_pairs_.resize(pairs->size());
-  for (const auto& pair : *pairs) {
-    int& slot = first_start_[static_cast<std::size_t>(pair.first)];
-    sorted_pairs_[static_cast<std::size_t>(slot++)] = pair;
-  }
-  // first_start_[i] is now where i's pairs end; each group's partners in order.
-  auto begin = sorted_pairs_.begin();
-  for (std::size_t i = 0; i < static_cast<std::size_t>(count); ++i) {
-    const auto end = sorted_pairs_.begin() + first_start_[i];
-    std::sort(begin, end);
-    begin = end;
-  }
-  pairs->swap(sorted_pairs_);
+  countOut(count, *pairs, [](const std::pair<int, int>& pair) { return pair.second; }, &sorted_pairs_);
+  countOut(count, sorted_pairs_, [](const std::pair<int, int>& pair) { return pair.first; }, pairs);
 }
 
 }  // namespace cloth_sim::core

@@ -34,12 +34,13 @@ constexpr char kLinksTag[4] = {'L', 'I', 'N', 'K'};     ///< ClothInputs::frame_
 constexpr char kMotionTag[4] = {'C', 'A', 'L', 'M'};    ///< GuardMemory::frame_motion_m_per_s (version 4 on)
 constexpr char kSleepTag[4] = {'S', 'L', 'E', 'P'};     ///< GuardMemory's calm frames and drive (version 5 on)
 constexpr char kLastTag[4] = {'L', 'A', 'S', 'T'};      ///< the saved frame's substeps (version 6 on)
-constexpr std::size_t kSectionCount = 9;
+constexpr char kAnchorTag[4] = {'A', 'N', 'C', 'H'};    ///< calm_largest_step_m, calm_anchor_m (version 7 on)
+constexpr std::size_t kSectionCount = 10;
 /// How many of the sections above a file of each version holds (index: the version, 1 up to
 /// StateFileFormat::kVersion): version 1 files end after the inputs, version 2 files after the guard's
 /// memory, version 3 files after the frame colliders' tracks, version 4 files after the last frame's motion,
-/// version 5 files after the sleep counters.
-constexpr std::array<std::size_t, StateFileFormat::kVersion + 1> kSectionsInVersion{0, 3, 4, 6, 7, 8, kSectionCount};
+/// version 5 files after the sleep counters, version 6 files after the last frame's substeps.
+constexpr std::array<std::size_t, StateFileFormat::kVersion + 1> kSectionsInVersion{0, 3, 4, 6, 7, 8, 9, kSectionCount};
 /// Bytes of one gripper before its particles: id, max force, two poses of 7 doubles, start time, duration,
 /// the frame name's length and the particle count.
 constexpr std::size_t kGripperFixedBytes = 4 + 8 + 2 * 7 * 8 + 8 + 8 + 8 + 8;
@@ -309,6 +310,14 @@ std::string encodeLast(int last_frame_substeps) {
   return out.bytes();
 }
 
+std::string encodeAnchor(const GuardMemory& guard) {
+  Writer out;
+  out.put(guard.calm_largest_step_m);
+  out.put(static_cast<std::uint64_t>(guard.calm_anchor_m.cols()));
+  out.putColumns(guard.calm_anchor_m);
+  return out.bytes();
+}
+
 std::string encodeGuard(const GuardMemory& guard) {
   Writer out;
   out.put(static_cast<std::int32_t>(guard.auto_scale));
@@ -384,6 +393,14 @@ int decodeLast(const std::string& bytes) {
   return substeps;
 }
 
+void decodeAnchor(const std::string& bytes, GuardMemory* guard) {
+  Reader in(bytes.data(), bytes.size(), "anchor section");
+  guard->calm_largest_step_m = in.get<double>();
+  const std::size_t count = in.getCount(3 * sizeof(double), kMaxParticles, "anchor positions");
+  guard->calm_anchor_m = in.getColumns(count);
+  in.expectEnd();
+}
+
 GuardMemory decodeGuard(const std::string& bytes) {
   Reader in(bytes.data(), bytes.size(), "guard section");
   GuardMemory guard;
@@ -429,6 +446,7 @@ std::string encodeStateFile(const SimulationSnapshot& snapshot) {
   payload.section(kMotionTag, encodeMotion(snapshot.guard));
   payload.section(kSleepTag, encodeSleep(snapshot.guard));
   payload.section(kLastTag, encodeLast(snapshot.last_frame_substeps));
+  payload.section(kAnchorTag, encodeAnchor(snapshot.guard));
   Writer file;
   file.putBytes(F::kMagic, sizeof(F::kMagic));
   file.put(F::kByteOrderMark);
@@ -478,7 +496,7 @@ bool decodeStateFile(const std::string& bytes, SimulationSnapshot* snapshot, std
     Reader sections(payload, held, "payload");
     std::array<std::string, kSectionCount> parts;
     const std::array<const char*, kSectionCount> tags{kOptionsTag, kStateTag, kInputsTag, kGuardTag, kGrippersTag,
-                                                      kLinksTag, kMotionTag, kSleepTag, kLastTag};
+                                                      kLinksTag, kMotionTag, kSleepTag, kLastTag, kAnchorTag};
     const std::size_t section_count = kSectionsInVersion[version];
     for (std::size_t s = 0; s < section_count; ++s) {
       const std::string expected(tags[s], kTagBytes);
@@ -505,6 +523,13 @@ bool decodeStateFile(const std::string& bytes, SimulationSnapshot* snapshot, std
     if (version >= 4) read.guard.frame_motion_m_per_s = decodeMotion(parts[6]);
     if (version >= 5) decodeSleep(parts[7], &read.guard);
     if (version >= 6) read.last_frame_substeps = decodeLast(parts[8]);
+    if (version >= 7) {
+      decodeAnchor(parts[9], &read.guard);
+    } else if (read.guard.calm_frames > 0) {
+      // Older files counted calm frames frame to frame, with no anchor: one that was calm is seen at rest
+      // from where it was saved, each frame of its rest within sleep_speed (a largest step of 0).
+      read.guard.calm_anchor_m = read.state.positions_m;
+    }
     const int particles = read.options.rows * read.options.cols;
     if (read.state.particleCount() != particles) {
       throw Malformed{"state section: " + std::to_string(read.state.particleCount()) + " particles for a " +

@@ -188,8 +188,12 @@ bool sameTrack(const PoseTrack& a, const PoseTrack& b) {
   }
   if (a.guard.auto_scale != b.guard.auto_scale || a.guard.consecutive_rollbacks != b.guard.consecutive_rollbacks ||
       !sameBits(a.guard.frame_motion_m_per_s, b.guard.frame_motion_m_per_s) ||
-      a.guard.calm_frames != b.guard.calm_frames || a.guard.drive_fingerprint != b.guard.drive_fingerprint) {
+      a.guard.calm_frames != b.guard.calm_frames || a.guard.drive_fingerprint != b.guard.drive_fingerprint ||
+      !sameBits(a.guard.calm_largest_step_m, b.guard.calm_largest_step_m)) {
     return ::testing::AssertionFailure() << "guard memory differs";
+  }
+  if (!sameMatrixBits(a.guard.calm_anchor_m, b.guard.calm_anchor_m)) {
+    return ::testing::AssertionFailure() << "the calm frames' anchors differ";
   }
   const ClothState& sa = a.state;
   const ClothState& sb = b.state;
@@ -430,6 +434,23 @@ TEST(Restore, InvalidOptionsAreRefusedByName) {
   expectRefused([](SimulationSnapshot& s) { s.guard.frame_motion_m_per_s = -1.0; }, "guard memory");
   expectRefused([](SimulationSnapshot& s) { s.guard.calm_frames = -1; }, "guard memory");
   expectRefused([](SimulationSnapshot& s) { s.guard.calm_frames = Simulation::sleepAfterFrames(s.options) + 1; }, "guard memory");
+  // The calm frames' anchor: one finite position per particle while there are calm frames, none else;
+  // their largest step within twice the allowance, 0 while there are none.
+  const auto calm = [](SimulationSnapshot& s) {
+    s.guard.calm_frames = 3;
+    s.guard.calm_anchor_m = s.state.positions_m;
+  };
+  expectRefused([](SimulationSnapshot& s) { s.guard.calm_anchor_m = s.state.positions_m; }, "anchor (one position");
+  expectRefused([](SimulationSnapshot& s) { s.guard.calm_frames = 3; }, "anchor (one position");
+  expectRefused([&](SimulationSnapshot& s) { calm(s); s.guard.calm_anchor_m(1, 7) = kNaN; }, "anchor (one position per particle while there are calm frames, else none)[7]");
+  expectRefused([&](SimulationSnapshot& s) { calm(s); s.guard.calm_anchor_m(2, 0) = 2e3; }, "anchor (one position per particle while there are calm frames, else none)[0]");
+  expectRefused([&](SimulationSnapshot& s) { calm(s); s.guard.calm_largest_step_m = -1e-9; }, "largest step");
+  expectRefused([&](SimulationSnapshot& s) { calm(s); s.guard.calm_largest_step_m = kNaN; }, "largest step");
+  expectRefused([&](SimulationSnapshot& s) {
+    calm(s);
+    s.guard.calm_largest_step_m = 2.0 * Simulation::sleepAllowance_m(s.options) * (1.0 + 1e-12);
+  }, "largest step");
+  expectRefused([](SimulationSnapshot& s) { s.guard.calm_largest_step_m = 1e-6; }, "largest step");
   expectRefused([](SimulationSnapshot& s) { s.options.springs[0].stiffness_N_per_m = kNaN; }, "stiffness");
 }
 
@@ -494,7 +515,7 @@ TEST(Restore, RestoreStateChecksItsInputAndKeepsOptionsAndInputs) {
   expected.state = before.state;
   // The last frame's motion was the old state's: a state put in has not been seen moving yet.
   expected.guard.frame_motion_m_per_s = GuardMemory().frame_motion_m_per_s;
-  expected.guard.calm_frames = 0;
+  expected.guard.forgetCalm();
   ASSERT_TRUE(sim.restoreState(before.state, &error)) << error;
   EXPECT_TRUE(sameSnapshot(expected, sim.snapshot())) << "restoreState must bring back the state, inputs untouched";
 }
@@ -775,6 +796,11 @@ constexpr std::size_t kMotionSectionBytes = 4 + 8 + 8;
 constexpr std::size_t kSleepSectionBytes = 4 + 8 + 4 + 8;
 /// The LAST section (version 6 on): a tag, an 8-byte length and the saved frame's substeps (int32).
 constexpr std::size_t kLastSectionBytes = 4 + 8 + 4;
+/// The ANCH section (version 7 on): a tag, an 8-byte length, the largest calm step (a double), a count
+/// (uint64) and the anchor's positions.
+std::size_t anchorSectionBytes(const SimulationSnapshot& snapshot) {
+  return 4 + 8 + 8 + 8 + 3 * sizeof(double) * static_cast<std::size_t>(snapshot.guard.calm_anchor_m.cols());
+}
 
 /// bytes, an encoded file, cut to its first `version`'s sections: the last `cut` bytes dropped.
 std::string asOlderVersion(std::string bytes, std::uint32_t version, std::size_t cut) {
@@ -802,30 +828,54 @@ TEST(StateFile, AVersion5FileStillLoadsWithTheLastFrameSubstepsUnknown) {
   SimulationSnapshot saved = drivenSnapshot();
   saved.last_frame_substeps = 4;
   const std::string bytes = encodeStateFile(saved);
-  ASSERT_EQ(bytes.substr(bytes.size() - kLastSectionBytes, 4), "LAST");
+  const std::size_t anchor = anchorSectionBytes(saved);
+  ASSERT_EQ(bytes.substr(bytes.size() - anchor - kLastSectionBytes, 4), "LAST");
   SimulationSnapshot loaded;
   std::string error;
   ASSERT_TRUE(decodeStateFile(bytes, &loaded, &error)) << error;
-  EXPECT_EQ(loaded.last_frame_substeps, 4) << "version 6 keeps the saved frame's substeps";
-  ASSERT_TRUE(decodeStateFile(asOlderVersion(bytes, 5, kLastSectionBytes), &loaded, &error)) << error;
+  EXPECT_EQ(loaded.last_frame_substeps, 4) << "version 6 on keeps the saved frame's substeps";
+  ASSERT_TRUE(decodeStateFile(asOlderVersion(bytes, 5, anchor + kLastSectionBytes), &loaded, &error)) << error;
   EXPECT_EQ(loaded.last_frame_substeps, 0) << "an older file does not know them";
   saved.last_frame_substeps = 0;
   EXPECT_TRUE(sameSnapshot(saved, loaded));
+}
+
+TEST(StateFile, AVersion6FilesCalmClothCountsItsCalmFramesFromWhereItWasSaved) {
+  SimulationSnapshot saved = sleepingSnapshot();
+  ASSERT_EQ(saved.guard.calm_frames, Simulation::sleepAfterFrames(saved.options)) << "the sheet on the floor never slept";
+  ASSERT_EQ(saved.guard.calm_anchor_m.cols(), saved.state.particleCount()) << "asleep with no anchor";
+  const std::string bytes = encodeStateFile(saved);
+  const std::size_t anchor = anchorSectionBytes(saved);
+  ASSERT_EQ(bytes.substr(bytes.size() - anchor, 4), "ANCH");
+  SimulationSnapshot loaded;
+  std::string error;
+  ASSERT_TRUE(decodeStateFile(asOlderVersion(bytes, 6, anchor), &loaded, &error)) << error;
+  // Version 6 counted calm frames frame to frame and kept no anchor: the saved positions stand in for it,
+  // and each of its calm frames moved less than sleep_speed in a frame (a largest step of 0).
+  EXPECT_EQ(loaded.guard.calm_frames, saved.guard.calm_frames);
+  saved.guard.calm_anchor_m = saved.state.positions_m;
+  saved.guard.calm_largest_step_m = 0.0;
+  EXPECT_TRUE(sameSnapshot(saved, loaded));
+  Simulation simulation(loaded.options);
+  ASSERT_TRUE(simulation.restore(loaded, &error)) << error;
+  EXPECT_TRUE(simulation.advanceFrame().asleep) << "a cloth saved asleep by version 6 woke when loaded";
 }
 
 TEST(StateFile, AVersion4FileStillLoadsAwake) {
   SimulationSnapshot saved = sleepingSnapshot();
   ASSERT_EQ(saved.guard.calm_frames, Simulation::sleepAfterFrames(saved.options)) << "the sheet on the floor never slept";
   const std::string bytes = encodeStateFile(saved);
-  ASSERT_EQ(bytes.substr(bytes.size() - kLastSectionBytes - kSleepSectionBytes, 4), "SLEP");
+  const std::size_t anchor = anchorSectionBytes(saved);
+  ASSERT_EQ(bytes.substr(bytes.size() - anchor - kLastSectionBytes - kSleepSectionBytes, 4), "SLEP");
   SimulationSnapshot loaded;
   std::string error;
   ASSERT_TRUE(decodeStateFile(bytes, &loaded, &error)) << error;
-  EXPECT_TRUE(sameSnapshot(saved, loaded)) << "version 6 keeps the sleep count";
-  ASSERT_TRUE(decodeStateFile(asOlderVersion(bytes, 4, kLastSectionBytes + kSleepSectionBytes), &loaded, &error))
+  EXPECT_TRUE(sameSnapshot(saved, loaded)) << "version 7 keeps the sleep count and its anchor";
+  ASSERT_TRUE(
+      decodeStateFile(asOlderVersion(bytes, 4, anchor + kLastSectionBytes + kSleepSectionBytes), &loaded, &error))
       << error;
   EXPECT_EQ(loaded.guard.calm_frames, 0) << "an older file's cloth must be seen at rest before it sleeps";
-  saved.guard.calm_frames = 0;
+  saved.guard.forgetCalm();
   saved.guard.drive_fingerprint = 0;
   saved.last_frame_substeps = 0;
   EXPECT_TRUE(sameSnapshot(saved, loaded));
@@ -835,14 +885,14 @@ TEST(StateFile, AVersion3FileStillLoadsWithNoFrameMotionMeasured) {
   SimulationSnapshot saved = drivenSnapshot();
   ASSERT_TRUE(std::isfinite(saved.guard.frame_motion_m_per_s)) << "the driven run measured no frame";
   const std::string bytes = encodeStateFile(saved);
-  constexpr std::size_t kNewer = kMotionSectionBytes + kSleepSectionBytes + kLastSectionBytes;
+  const std::size_t kNewer = kMotionSectionBytes + kSleepSectionBytes + kLastSectionBytes + anchorSectionBytes(saved);
   ASSERT_EQ(bytes.substr(bytes.size() - kNewer, 4), "CALM");
   SimulationSnapshot loaded;
   std::string error;
   ASSERT_TRUE(decodeStateFile(asOlderVersion(bytes, 3, kNewer), &loaded, &error)) << error;
   EXPECT_TRUE(std::isinf(loaded.guard.frame_motion_m_per_s)) << "an older file's cloth must not count as calm";
   saved.guard.frame_motion_m_per_s = GuardMemory().frame_motion_m_per_s;
-  saved.guard.calm_frames = 0;
+  saved.guard.forgetCalm();
   saved.guard.drive_fingerprint = 0;
   saved.last_frame_substeps = 0;
   EXPECT_TRUE(sameSnapshot(saved, loaded));
@@ -854,17 +904,17 @@ TEST(StateFile, AVersion2FileStillLoadsWithNoGrippersOrLinkPoses) {
   saved.inputs.frame_colliders.clear();
   saved.options.colliders.frames.clear();
   const std::string bytes = encodeStateFile(saved);
-  // Version 2 is version 6 without the last five sections: GRIP and LINK, each a tag, an 8-byte length
-  // and an 8-byte count of 0, CALM, SLEP and LAST.
+  // Version 2 is version 7 without the last six sections: GRIP and LINK, each a tag, an 8-byte length
+  // and an 8-byte count of 0, CALM, SLEP, LAST and ANCH.
   constexpr std::size_t kEmptySectionBytes = 4 + 8 + 8;
-  constexpr std::size_t kNewer = kSleepSectionBytes + kMotionSectionBytes + kLastSectionBytes;
+  const std::size_t kNewer = kSleepSectionBytes + kMotionSectionBytes + kLastSectionBytes + anchorSectionBytes(saved);
   ASSERT_EQ(bytes.substr(bytes.size() - kNewer - 2 * kEmptySectionBytes, 4), "GRIP");
   ASSERT_EQ(bytes.substr(bytes.size() - kNewer - kEmptySectionBytes, 4), "LINK");
   SimulationSnapshot loaded;
   std::string error;
   ASSERT_TRUE(decodeStateFile(asOlderVersion(bytes, 2, kNewer + 2 * kEmptySectionBytes), &loaded, &error)) << error;
   saved.guard.frame_motion_m_per_s = GuardMemory().frame_motion_m_per_s;
-  saved.guard.calm_frames = 0;
+  saved.guard.forgetCalm();
   saved.guard.drive_fingerprint = 0;
   saved.last_frame_substeps = 0;
   EXPECT_TRUE(sameSnapshot(saved, loaded));
@@ -998,6 +1048,8 @@ TEST(StateFile, TheLargestGridWithEveryParticlePinnedFitsUnderTheLimit) {
   worst.inputs.pins.resize(kParticles);
   worst.inputs.pin_anchors_m = Eigen::Matrix3Xd::Random(3, kParticles);
   worst.inputs.pin_travel_m = Eigen::Matrix3Xd::Random(3, kParticles);
+  worst.guard.calm_frames = 1;
+  worst.guard.calm_anchor_m = Eigen::Matrix3Xd::Random(3, kParticles);
   const std::size_t size = encodeStateFile(worst).size();
   const double per_particle = static_cast<double>(size - without_pins) / kParticles;
   std::printf("[ size       ] every particle pinned: %.1f bytes per particle, budget %zu; fixed part %zu bytes\n",
@@ -1020,12 +1072,13 @@ TEST(StateFile, SizesOfOrdinarySnapshots) {
     snapshot.inputs.pin_travel_m.setZero(3, 2);
     const std::size_t size = encodeStateFile(snapshot).size();
     std::printf("[ size       ] hanging %dx%d: %zu bytes\n", side, side, size);
-    // Header, 9 section headers (tag + length), options text, state, inputs, guard memory (2 x int32),
+    // Header, 10 section headers (tag + length), options text, state, inputs, guard memory (2 x int32),
     // grippers and frame colliders (a count of 0 each), the last frame's motion (a double), the calm
-    // frames and the drive (an int32 and a uint64), the last frame's substeps (an int32).
-    EXPECT_EQ(size, StateFileFormat::kHeaderBytes + 9 * 12 + sceneYaml(snapshot.options).size() +
+    // frames and the drive (an int32 and a uint64), the last frame's substeps (an int32), the calm frames'
+    // largest step (a double) and anchor (a count of 0: the cloth is not calm).
+    EXPECT_EQ(size, StateFileFormat::kHeaderBytes + 10 * 12 + sceneYaml(snapshot.options).size() +
                         (8 + 8 + 8 + 48 * static_cast<std::size_t>(side * side)) + (24 + 8 + 2 * 4 + 2 * 48 + 8) + 8 +
-                        8 + 8 + 8 + (4 + 8) + 4);
+                        8 + 8 + 8 + (4 + 8) + 4 + (8 + 8));
   }
 }
 

@@ -979,8 +979,9 @@ TEST_F(NodeTest, AClothAtRestSleepsAndAGraspWakesIt) {
   const auto asleep = diagnostics.waitFor(asleepIs("True"), 40.0, diagnostics.count());
   ASSERT_TRUE(asleep) << "the hanging cloth never slept";
   // Asleep: ~state keeps coming, frame after frame, with the same positions (bit for bit, but for the frame
-  // computed once a second to check the cloth is still at rest: it moves less than sleep_speed, 1e-4 m/s,
-  // over 0.02 s there) and the substeps the cloth was last computed with.
+  // computed once a second to check the cloth is still at rest: the hanging cloth comes to an exact rest,
+  // so that frame moves it less than sleep_speed, 1e-4 m/s, over 0.02 s, or it would wake) and the
+  // substeps the cloth was last computed with.
   const auto first = states_->waitForNext(5.0, states_->count());
   ASSERT_TRUE(first);
   const auto later = states_->waitFor([&](const ClothState& s) { return s.frame >= first->frame + 10; }, 5.0,

@@ -166,20 +166,25 @@ struct SceneOptions {
   /// A frame the guard rejects is recomputed with 2x, 4x, 8x the substeps before it is rolled back;
   /// false: computed once (fixed-step accuracy runs, tests), rejected frames still rolled back and reported.
   bool guard_retries = true;
-  /// A cloth at rest is no longer computed (it sleeps, as PhysX's and NvCloth's cloths do) once no particle
-  /// has moved faster than this, m/s, for kSleepAfter_s in a row while nothing drove it: every hook,
+  /// A cloth at rest is no longer computed (it sleeps, as PhysX's and NvCloth's cloths do) once for
+  /// kSleepAfter_s in a row no particle has got further than this, m/s, times kSleepAfter_s from where it
+  /// was when they began (Simulation::sleepAllowance_m), while nothing drove it: every hook,
   /// sphere, gripper and frame collider held still, the wind had no gusts and no input changed. Anything
   /// that drives it again wakes it before the frame is computed. 0: never sleeps.
   double sleep_speed_m_per_s = kDefaultSleepSpeed_m_per_s;
-  /// 0.1 mm/s: 2 um a frame at 50 Hz, far below what a picture shows and 10x below the creep the
+  /// 0.1 mm/s: 50 um over kSleepAfter_s, far below what a picture shows and 10x below the creep the
   /// self-collision tests allow a resting towel (1 mm/s). A folded 64 x 64 towel comes to an exact rest
-  /// (1e-15 m/s) about 1 s after it is let go; a cloth still creeping faster keeps being computed.
+  /// (1e-15 m/s) about 1 s after it is let go, or, folded by the node's hands (a frame late), into a
+  /// limit cycle of 13 um a frame that stays within 50 um; a cloth still creeping faster keeps being
+  /// computed.
   static constexpr double kDefaultSleepSpeed_m_per_s = 1e-4;
-  /// How long the cloth must stay below sleep_speed before it sleeps, s of simulated time: longer than a
-  /// swing's turning point or a bounce's top (where a moving cloth stops for a frame or two).
+  /// How long the cloth must stay within sleep_speed times this of where it was when it began to, before
+  /// it sleeps, s of simulated time: longer than a swing's turning point or a bounce's top (where a moving
+  /// cloth stops for a frame or two).
   static constexpr double kSleepAfter_s = 0.5;
   /// A sleeping cloth is still computed once per this period, s: a cloth that only seemed at rest (a hem
-  /// beginning to slide off a table's edge, creeping under sleep_speed at first) is seen to move and wakes.
+  /// beginning to slide off a table's edge) is seen to move further in that frame than its rest did
+  /// (GuardMemory::calm_largest_step_m) and wakes.
   static constexpr double kSleepCheckPeriod_s = 1.0;
   SolverOptions solver;         ///< implicit_euler's linear solve: tolerance and iteration cap per step
   /// Threads for the force kernels and the solver on grids of 4096 particles or more. 1 by default: on

@@ -94,6 +94,10 @@ class Simulation {
   /// Frames the cloth must stay calm before it sleeps: SceneOptions::kSleepAfter_s at the frame rate (at
   /// least 1).
   static int sleepAfterFrames(const SceneOptions& options);
+  /// How far a particle may get from where it was when the calm frames began and the cloth still count as
+  /// at rest, m: sleep_speed over SceneOptions::kSleepAfter_s (50 um at the defaults), so that its mean
+  /// speed over the calm frames stays under sleep_speed, however it jitters within that.
+  static double sleepAllowance_m(const SceneOptions& options);
   /// A sleeping cloth is computed on the frames whose number is a multiple of this
   /// (SceneOptions::kSleepCheckPeriod_s at the frame rate).
   static int sleepCheckFrames(const SceneOptions& options);
@@ -281,6 +285,12 @@ class Simulation {
   bool sleepsThrough(bool driven, std::uint64_t drive) const;
   /// Advances time and frame number over a frame the cloth sleeps through; *report says so.
   void sleepThroughFrame(FrameReport* report);
+  /// Counts the frame just accepted as calm or not (GuardMemory::calm_frames, calm_anchor_m and
+  /// calm_largest_step_m): calm if nothing drove it (`still_inputs`) and no particle is further than
+  /// sleepAllowance_m() from the calm frames' anchor (this frame's start for the first), and, for the
+  /// check frame of a sleeping cloth, no particle moved further in it (`step_m`, m) than its rest did plus
+  /// what sleep_speed moves in a frame.
+  void countCalmFrame(bool still_inputs, double step_m);
   /// Runs one frame in the given number of substeps from the current state; adds the integrator's work
   /// to *steps.
   ContactStats integrateFrame(int substeps, StepReport* steps, SelfCollisionStats* self_collision);

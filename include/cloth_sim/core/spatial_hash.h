@@ -94,9 +94,14 @@ class SweptPairFinder {
     }
   }
 
-  /// Sorts *pairs (each (i, j) once, 0 <= i < j < count) as std::sort would: counted out by i, then each
-  /// i's few partners sorted; a comparison sort of the whole list cost a third of the broad phase.
+  /// Sorts *pairs (each (i, j) once, 0 <= i < j < count) as std::sort would, in two counting passes
+  /// (a radix sort with the particle index as digit): by j, then, keeping that order, by i. A comparison
+  /// sort of the whole list cost a third of the broad phase, and sorting each i's partners after counting
+  /// out by i still 11 % of a frame where the 64 x 64 fold lands (perf).
   void sortPairs(int count, std::vector<std::pair<int, int>>* pairs);
+  /// One stable counting pass of sortPairs: `from` into `to` in the order of key(pair), 0 <= key < count.
+  template <typename Key>
+  void countOut(int count, const std::vector<std::pair<int, int>>& from, Key key, std::vector<std::pair<int, int>>* to);
   /// Puts every point into the cell of its box's low corner; false when there is nothing to pair.
   bool hashBoxes(double reach_m);
   /// The index in cells_ of the cell with this key, or -1 if no point's low corner is in it.
@@ -110,7 +115,7 @@ class SweptPairFinder {
   std::vector<int> cell_of_;         ///< per point: its cell in cells_
   std::vector<int> sorted_points_;   ///< the points, cell by cell, each cell's in increasing order
   Boxes sorted_boxes_m_;             ///< their boxes, in the same order
-  std::vector<int> first_start_;  ///< sortPairs: where each i's pairs start
+  std::vector<int> key_start_;  ///< countOut: where each key's pairs go next
   std::vector<std::pair<int, int>> sorted_pairs_;
   Boxes boxes_m_;  ///< per point, its box; read in pairs of points, so its two corners lie together
 };

@@ -112,9 +112,28 @@ struct GuardMemory {
   /// positions, not velocities: a layer resting on another on the floor carries the upper layer's weight
   /// as a velocity the floor takes off every step, and a folded towel at rest never looked calm by it.
   double frame_motion_m_per_s = std::numeric_limits<double>::infinity();
-  /// Frames in a row computed while nothing drove the cloth and no particle moved faster than the
-  /// options' sleep_speed, up to Simulation::sleepAfterFrames(): from there on the cloth sleeps.
+  /// Frames in a row computed while nothing drove the cloth and no particle got further from where it
+  /// was when they began (calm_anchor_m) than Simulation::sleepAllowance_m(), up to
+  /// Simulation::sleepAfterFrames(): from there on the cloth sleeps.
   int calm_frames = 0;
+  /// Where the particles were when the calm frames began (world frame, m; one column per particle, none
+  /// while calm_frames is 0). Measured from there rather than frame to frame: a folded towel at rest can
+  /// settle into a limit cycle of its contacts' friction, a particle on the floor flipping 13 um to and
+  /// fro every frame for good (0.6 mm/s frame to frame, nowhere in a second), and never slept.
+  Eigen::Matrix3Xd calm_anchor_m;
+  /// The farthest any particle moved in one frame over the second half of the calm frames before the
+  /// cloth fell asleep, m (0 while there are none): how much a frame of its rest may move. A sleeping cloth
+  /// is computed once a second, and one frame cannot tell a jitter from the start of a slide: a check frame
+  /// that moves further than this plus what sleep_speed moves in a frame wakes it, so a cloth that came to
+  /// an exact rest wakes on the first check frame once it slides faster than sleep_speed. The first half of the calm frames is left
+  /// out: a cloth arriving at rest may still move up to the allowance in its first calm frame.
+  double calm_largest_step_m = 0.0;
+  /// No calm frames counted (and so no anchor): the cloth must be seen at rest again before it sleeps.
+  void forgetCalm() {
+    calm_frames = 0;
+    calm_anchor_m.resize(3, 0);
+    calm_largest_step_m = 0.0;
+  }
   /// What drove the last frame (Simulation's fingerprint of the inputs): a frame that starts with another
   /// one is computed, and counts as calm only from the next frame on.
   std::uint64_t drive_fingerprint = 0;

@@ -22,14 +22,17 @@ struct StateFileFormat {
   /// last frame's motion (CALM), which `auto` substeps read; older files restore with none measured.
   /// Version 5 added the sleep count and the drive it was counted under (SLEP); older files restore awake.
   /// Version 6 added the saved frame's substeps (LAST); older files report what the next frame takes.
-  static constexpr std::uint32_t kVersion = 6;
+  /// Version 7 added where the calm frames began (ANCH); an older file's calm cloth counts from where it
+  /// was saved.
+  static constexpr std::uint32_t kVersion = 7;
   /// Written in the writer's byte order: read back as 0x04030201 on a machine of the other order.
   static constexpr std::uint32_t kByteOrderMark = 0x01020304;
   static constexpr std::size_t kHeaderBytes = 32;
   /// Allowance for the options text and the section headers, bytes.
   static constexpr std::size_t kFixedAllowanceBytes = std::size_t{1} << 20;
   /// Per particle: 48 bytes of positions and velocities, at most 52 of pin data (index, hook, travel),
-  /// at most 28 of gripper data (index, offset) and room for its pin in the options text.
+  /// at most 28 of gripper data (index, offset), 24 of the calm frames' anchor and room for its pin in the
+  /// options text.
   static constexpr std::size_t kMaxBytesPerParticle = 256;
   /// Larger files are refused before anything is read: the largest grid's snapshot fits with room.
   static constexpr std::size_t kMaxFileBytes =
