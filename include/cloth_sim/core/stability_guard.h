@@ -125,8 +125,9 @@ struct GuardMemory {
   /// cloth fell asleep, m (0 while there are none): how much a frame of its rest may move. A sleeping cloth
   /// is computed once a second, and one frame cannot tell a jitter from the start of a slide: a check frame
   /// that moves further than this plus what sleep_speed moves in a frame wakes it, so a cloth that came to
-  /// an exact rest wakes on the first check frame once it slides faster than sleep_speed. The first half of the calm frames is left
-  /// out: a cloth arriving at rest may still move up to the allowance in its first calm frame.
+  /// an exact rest wakes on the first check frame once it slides faster than sleep_speed. The first half
+  /// of the calm frames is left out: a cloth arriving at rest may still move up to the allowance in its
+  /// first calm frame.
   double calm_largest_step_m = 0.0;
   /// No calm frames counted (and so no anchor): the cloth must be seen at rest again before it sleeps.
   void forgetCalm() {

@@ -22,8 +22,8 @@ struct StateFileFormat {
   /// last frame's motion (CALM), which `auto` substeps read; older files restore with none measured.
   /// Version 5 added the sleep count and the drive it was counted under (SLEP); older files restore awake.
   /// Version 6 added the saved frame's substeps (LAST); older files report what the next frame takes.
-  /// Version 7 added where the calm frames began (ANCH); an older file's calm cloth counts from where it
-  /// was saved.
+  /// Version 7 added where the calm frames began and the largest step of the cloth's rest (ANCH); an older
+  /// file's calm cloth counts from where it was saved, with a largest step of 0.
   static constexpr std::uint32_t kVersion = 7;
   /// Written in the writer's byte order: read back as 0x04030201 on a machine of the other order.
   static constexpr std::uint32_t kByteOrderMark = 0x01020304;
