@@ -330,6 +330,10 @@ bool ClothNode::advanceFrames(int frames, bool publish_between) {
     if (gripped) grippers_->beforeFrame(frameTime(simulation_->state().frame + 1));
     if (!simulation_->options().colliders.frames.empty()) frame_colliders_->beforeFrame(frameTime(simulation_->state().frame + 1));
     const core::FrameReport report = simulation_->advanceFrame();
+    // A recovery that reset the scene starts the frame count again: frames are counted from now, as after
+    // ~reset (else the frames after it were stamped seconds before it), and the frames the tick still owed
+    // are owed no more.
+    if (report.scene_reset) reanchor();
     asleep_ = report.asleep;
     // A frame the cloth slept through computed nothing: the diagnostics keep the figures (substeps,
     // iterations, contacts) of the last frame that was computed, whose state the cloth still is.
@@ -354,6 +358,7 @@ bool ClothNode::advanceFrames(int frames, bool publish_between) {
       return false;  // the same frame would diverge again right away: leave it to the next tick
     }
     window_sim_s_ += simulation_->options().frameDuration_s();
+    if (report.scene_reset) break;
   }
   return true;
 }

@@ -18,8 +18,8 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 DEADLINE_S = 60.0
 BUDGET_MS = 20.0  # 1 / 50 Hz, the scenes' frame rate
 FRAME_RATE_HZ = 50.0
-# ~state messages the catch-up test reads from the heavy node: its ticks catch up 5 frames each (the most a
-# wall-time tick simulates), so this spans several ticks.
+# ~state messages the catch-up test reads from the heavy node: each of its ticks catches up 2-5 frames (5 is
+# the most a wall-time tick simulates), so this spans several ticks.
 CAUGHT_UP_STATES = 16
 
 

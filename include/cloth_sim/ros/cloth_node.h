@@ -88,8 +88,9 @@ class ClothNode {
   static constexpr int kMaxCatchUpFrames = 5;
   /// Most frames one tick catches up under /use_sim_time; a bigger leap of /clock is not simulated.
   static constexpr int kMaxSimTimeCatchUpFrames = 500;
-  /// ~state messages roscpp holds per subscriber: a wall-time tick publishes up to kMaxCatchUpFrames + 1
-  /// (the frames it caught up and its own), each after a frame's work, so a subscriber loses none of them.
+  /// ~state messages roscpp holds per subscriber: a wall-time tick publishes up to kMaxCatchUpFrames (the
+  /// frames it caught up on, then its own), one spare. Under /use_sim_time a /clock step of more frames
+  /// sends more, back to back, and a subscriber keeps the newest of them.
   static constexpr std::uint32_t kStateQueue = kMaxCatchUpFrames + 1;
   /// ~grasp messages the subscriber holds for its receiving thread. That thread only files each one into
   /// GraspCommandQueue (microseconds), so this is reached only by a burst far beyond any hand's rate; the
