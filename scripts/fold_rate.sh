@@ -30,7 +30,8 @@ launch=$!
 # The rate tool waits for a master without end: a launch that fails (a workspace without the package)
 # must not hang the script, so it gets the measurement's time and a minute more.
 status=0
-timeout $((skip + seconds + 60)) "$ws/devel/lib/cloth_sim/cloth_topic_rate" --wait 20 --skip "$skip" --seconds "$seconds" \
+# A queue of 6, the node's own: the frames a late tick catches up on arrive back to back.
+timeout $((skip + seconds + 60)) "$ws/devel/lib/cloth_sim/cloth_topic_rate" --wait 20 --skip "$skip" --seconds "$seconds" --queue 6 \
   /cloth_node/state || status=$?
 if ! kill -0 "$launch" 2>/dev/null; then
   echo "fold_rate.sh: roslaunch exited early:" >&2

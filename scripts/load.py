@@ -9,7 +9,8 @@ and reports, for the flood's window:
   - what the node received and dropped on each input (its own bus statistics: subscriber queues are
     bounded, so a flood must show up as drops, not as memory),
   - the ~state and ~mesh rates received and the frames advanced per second,
-  - percentiles of the frame period (from the ~state stamps, i.e. the node's own timer ticks),
+  - percentiles of the frame period (from the ~state stamps: a tick's last frame carries the tick's time,
+    the frames it caught up on before it their own frame times, so a late tick shows as one long period),
   - the node's resident memory (VmRSS from /proc) before, after and at its peak.
 --attach measures a node already running under ROS_MASTER_URI instead (test/ros/test_load.py does).
 """

@@ -16,7 +16,9 @@ measures once rviz has subscribed: what drawing the cloth in rviz costs the node
 first (~pause: it republishes every frame, no physics), so only publishing and viewing are measured. The
 node's and rviz's CPU time over the first window are reported in % of one core, and the share of the node's
 statuses over that window that said the cloth was asleep (sleep_speed). --skip S starts the first window S
-seconds after the first message (default 2: past the start-up; 20: the scenes at rest).
+seconds after the first message (default 2: past the start-up; 20: the scenes at rest). --queue N is the
+rate tool's subscriber queue (default 6: cloth_node sends the frames a late tick caught up on back to back,
+up to 6, and a queue of 1 would count only the last of them; 1 counts what a newest-only subscriber gets).
 Needs the package built and its devel/setup.bash sourced (make rates does both).
 """
 import argparse
@@ -38,6 +40,8 @@ from load import start_master, wait_for
 CALLER = "/cloth_rates"
 READY_S = 60.0        # a 128x128 scene builds and its node registers within this
 STOP_S = 10.0
+# cloth_node's ~state queue (ClothNode::kStateQueue): a wall-time tick sends up to this many frames.
+STATE_QUEUE = 6
 SKIP_S = 2.0          # start-up frames (the scene's first solves, connections) are left out
 STATUS_NAME = "cloth_node: simulation"
 RVIZ_SCREEN = "1000x720x24"
@@ -111,9 +115,9 @@ def summarise(statuses):
             "message": last.message if last else None}
 
 
-def measure_rates(rate_tool, topics, seconds, skip_s=SKIP_S):
-    result = subprocess.run([rate_tool, "--seconds", str(seconds), "--skip", str(skip_s), "--wait", str(READY_S)]
-                            + topics, stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+def measure_rates(rate_tool, topics, seconds, skip_s=SKIP_S, queue=1):
+    result = subprocess.run([rate_tool, "--seconds", str(seconds), "--skip", str(skip_s), "--wait", str(READY_S),
+                             "--queue", str(queue)] + topics, stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
     lines = [line for line in result.stdout.splitlines() if line.startswith("{")]
     if not lines:
         raise RuntimeError("cloth_topic_rate printed nothing: " + result.stderr[-500:])
@@ -169,7 +173,8 @@ def pause(node_name, paused):
         raise RuntimeError("~pause refused: " + answer.message)
 
 
-def run_one(node_binary, rate_tool, diagnostics, proxy, scene, side, seconds, log, start_viewers, paused, skip_s):
+def run_one(node_binary, rate_tool, diagnostics, proxy, scene, side, seconds, log, start_viewers, paused, skip_s,
+            queue):
     node = subprocess.Popen([node_binary, "__name:=cloth_node", "_scene:=" + scene, "_rows:=%d" % side,
                              "_cols:=%d" % side], stdout=log, stderr=subprocess.STDOUT)
     try:
@@ -185,16 +190,16 @@ def run_one(node_binary, rate_tool, diagnostics, proxy, scene, side, seconds, lo
         watched = {"node": node.pid, "rviz": viewers[0].pid if viewers else None}
         cpu_before = {name: cpu_s(pid) for name, pid in watched.items() if pid}
         wall_before = time.monotonic()
-        alone = measure_rates(rate_tool, ["/cloth_node/state"], seconds, skip_s)["/cloth_node/state"]
+        alone = measure_rates(rate_tool, ["/cloth_node/state"], seconds, skip_s, queue)["/cloth_node/state"]
         wall_s = time.monotonic() - wall_before
         # CPU share over the whole measurement (cloth_topic_rate's start-up skip included), % of one core.
         cpu = {name + "_cpu_percent": 100.0 * (cpu_s(watched[name]) - before) / wall_s
                for name, before in cpu_before.items()}
         health = summarise(diagnostics.stop())
-        both = measure_rates(rate_tool, ["/cloth_node/state", "/cloth_node/mesh"], seconds)
+        both = measure_rates(rate_tool, ["/cloth_node/state", "/cloth_node/mesh"], seconds, SKIP_S, queue)
     finally:
         stop(node)
-    return {"scene": scene, "rows": side, "cols": side, "seconds": seconds, "paused": paused,
+    return {"scene": scene, "rows": side, "cols": side, "seconds": seconds, "paused": paused, "queue": queue,
             "state_hz": alone["rate_hz"], "state_period_ms": alone["period_ms"], "state_bytes": alone["bytes"],
             "state_hz_with_mesh": both["/cloth_node/state"]["rate_hz"],
             "mesh_hz": both["/cloth_node/mesh"]["rate_hz"], "mesh_bytes": both["/cloth_node/mesh"]["bytes"],
@@ -232,6 +237,8 @@ def main():
     parser.add_argument("--skip", type=float, default=SKIP_S,
                         help="seconds of ~state left out before the first window (default %(default)s: the start-up); "
                              "e.g. 20 to measure the scenes once they have come to rest (and may sleep)")
+    parser.add_argument("--queue", type=int, default=STATE_QUEUE, choices=range(1, 1001), metavar="N",
+                        help="the rate tool's subscriber queue (default %(default)s: every frame of a catching-up tick)")
     parser.add_argument("--json", metavar="FILE", help="also append each run as one JSON line to FILE")
     parser.add_argument("--rviz", choices=["none", "marker", "plugin"], default="none",
                         help="also run rviz drawing the cloth from ~mesh (marker) or from ~state (plugin)")
@@ -263,7 +270,7 @@ def main():
                     return viewers
                 try:
                     run = run_one(node_binary, rate_tool, diagnostics, proxy, scene, side, args.seconds, log,
-                                  start_viewers, args.paused, args.skip)
+                                  start_viewers, args.paused, args.skip, args.queue)
                 finally:
                     for process in viewers:
                         stop(process)

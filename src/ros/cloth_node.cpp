@@ -127,7 +127,7 @@ bool ClothNode::start(std::string* error) {
   mesh_period_s_ = 1.0 / mesh_rate_hz;
 
   mesh_pub_ = pnh_.advertise<visualization_msgs::Marker>(Names::kMeshTopic, 2);
-  state_pub_ = pnh_.advertise<cloth_sim::ClothState>(Names::kStateTopic, 2);
+  state_pub_ = pnh_.advertise<cloth_sim::ClothState>(Names::kStateTopic, kStateQueue);
   colliders_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>(Names::kCollidersTopic, 2);
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_);
   cameras_ = std::make_unique<DepthCameras>(pnh_, tf_buffer_, frame_id_, simulation_->options().cameras);
@@ -309,24 +309,31 @@ void ClothNode::onTimer(const ros::TimerEvent&) {
                  static_cast<long long>(behind), static_cast<long long>(most));
       }
       dropped_frames_ += behind - most;
-      advanceFrames(static_cast<int>(most));
+      advanceFrames(static_cast<int>(most), true);
       reanchor();
-    } else if (behind > 0 && !advanceFrames(static_cast<int>(behind))) {
+    } else if (behind > 0 && !advanceFrames(static_cast<int>(behind), true)) {
       reanchor();  // a frame was rolled back: owe nothing, try again at the next tick
     }
   }
-  publish(now);
-  frame_budget_.addTick();
+  // While paused, ~state repeats every tick (monitors and rviz keep seeing the cloth); while running it
+  // comes once per frame.
+  publish(now, paused_ || !state_published_ || last_state_frame_ != simulation_->state().frame);
   diagnostics_.update();
 }
 
-bool ClothNode::advanceFrames(int frames) {
+bool ClothNode::advanceFrames(int frames, bool publish_between) {
   for (int k = 0; k < frames && ros::ok(); ++k) {  // a shutdown does not wait for the frames owed
+    // The frame before this one was computed to catch up: it goes out now, not folded into the tick's.
+    if (publish_between && k > 0) publishState(frameTime(simulation_->state().frame));
     const auto start = std::chrono::steady_clock::now();
     const bool gripped = !simulation_->grippers().empty();
     if (gripped) grippers_->beforeFrame(frameTime(simulation_->state().frame + 1));
     if (!simulation_->options().colliders.frames.empty()) frame_colliders_->beforeFrame(frameTime(simulation_->state().frame + 1));
     const core::FrameReport report = simulation_->advanceFrame();
+    // A recovery that reset the scene starts the frame count again: frames are counted from now, as after
+    // ~reset (else the frames after it were stamped seconds before it), and the frames the tick still owed
+    // are owed no more.
+    if (report.scene_reset) reanchor();
     asleep_ = report.asleep;
     // A frame the cloth slept through computed nothing: the diagnostics keep the figures (substeps,
     // iterations, contacts) of the last frame that was computed, whose state the cloth still is.
@@ -351,8 +358,24 @@ bool ClothNode::advanceFrames(int frames) {
       return false;  // the same frame would diverge again right away: leave it to the next tick
     }
     window_sim_s_ += simulation_->options().frameDuration_s();
+    if (report.scene_reset) break;
   }
   return true;
+}
+
+void ClothNode::publishState(const ros::Time& stamp) {
+  frame_budget_.addStateMessage();
+  last_state_frame_ = simulation_->state().frame;
+  state_published_ = true;
+  if (state_pub_.getNumSubscribers() == 0) return;
+  const cloth_sim::ClothState state = toStateMessage(*simulation_, frame_id_, stamp);
+  const std::vector<std::string> non_finite = nonFiniteFields(state);
+  if (non_finite.empty()) {
+    state_pub_.publish(state);
+  } else {
+    ROS_ERROR_THROTTLE(kWarnThrottle_s, "cloth_node: not publishing ~state: %s not finite",
+                       join(non_finite, ", ").c_str());
+  }
 }
 
 ros::Time ClothNode::frameTime(std::uint64_t frame) const {
@@ -362,7 +385,7 @@ ros::Time ClothNode::frameTime(std::uint64_t frame) const {
   return anchor_time_ + ros::Duration(since_anchor_s);
 }
 
-void ClothNode::publish(const ros::Time& stamp) {
+void ClothNode::publish(const ros::Time& stamp, bool with_state) {
   // The core rolls a diverged frame back, so this holds; rviz crashes on NaN markers, so check anyway.
   if (!core::isFiniteAndBounded(simulation_->state(), core::Simulation::kDivergenceBound_m)) {
     ROS_ERROR_THROTTLE(kWarnThrottle_s, "cloth_node: state is not finite; not publishing");
@@ -377,16 +400,7 @@ void ClothNode::publish(const ros::Time& stamp) {
     mesh_pub_.publish(toMeshMarker(*simulation_, frame_id_, stamp));
     last_mesh_ = stamp;
   }
-  if (state_pub_.getNumSubscribers() > 0) {
-    const cloth_sim::ClothState state = toStateMessage(*simulation_, frame_id_, stamp);
-    const std::vector<std::string> non_finite = nonFiniteFields(state);
-    if (non_finite.empty()) {
-      state_pub_.publish(state);
-    } else {
-      ROS_ERROR_THROTTLE(kWarnThrottle_s, "cloth_node: not publishing ~state: %s not finite",
-                         join(non_finite, ", ").c_str());
-    }
-  }
+  if (with_state) publishState(stamp);
   if (colliders_pub_.getNumSubscribers() > 0 && !simulation_->options().colliders.empty()) {
     colliders_pub_.publish(toColliderMarkers(*simulation_, frame_id_, stamp));
   }
@@ -821,7 +835,7 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   addFiniteValue(status, "real-time factor", real_time_factor, &non_finite);
   addFiniteValue(status, "mean step cost [ms]", budget.mean_step_cost_ms, &non_finite);
   addFiniteValue(status, "frame budget [ms]", budget.budget_ms, &non_finite);
-  addFiniteValue(status, "state rate [Hz]", budget.tick_rate_hz, &non_finite);
+  addFiniteValue(status, "state rate [Hz]", budget.state_rate_hz, &non_finite);
   addFiniteValue(status, "kinetic energy [J]", energy.kinetic_J, &non_finite);
   addFiniteValue(status, "potential energy [J]", energy.potential_J, &non_finite);
   addFiniteValue(status, "max strain", simulation_->maxStructuralStrain(), &non_finite);

@@ -1,6 +1,6 @@
 // cloth_topic_rate: how fast topics really arrive at a C++ subscriber, as one JSON line.
 //
-//   rosrun cloth_sim cloth_topic_rate [--seconds 10] [--wait 30] [--skip 1] TOPIC...
+//   rosrun cloth_sim cloth_topic_rate [--seconds 10] [--wait 30] [--skip 1] [--queue 1] TOPIC...
 //
 // Subscribes to every TOPIC as a topic_tools::ShapeShifter (any type, never deserialised: the bytes are
 // only counted, so the subscriber costs a copy and stays far faster than rostopic hz, which cannot keep
@@ -13,10 +13,14 @@
 // stamp_rate_hz is the rate of the messages' own header stamps (messages whose first field is a Header):
 // the publisher's clock, without the transport's jitter. A topic with no message inside --wait seconds
 // reports "messages": 0. Exit status 0 when every topic got at least two messages, 1 otherwise.
+// --queue is the subscriber's queue: 1 (the default) counts what a subscriber that only wants the newest
+// message gets; cloth_node sends the frames a late tick caught up on back to back (up to 6), so a
+// subscriber that wants every frame, and this tool counting them, needs a queue that deep.
 #include <ros/ros.h>
 #include <topic_tools/shape_shifter.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -32,6 +36,8 @@ namespace {
 constexpr double kDefaultSeconds = 10.0;
 constexpr double kDefaultWait_s = 30.0;
 constexpr double kDefaultSkip_s = 1.0;
+constexpr double kDefaultQueue = 1.0;
+constexpr double kMaxQueue = 1000.0;
 constexpr double kMillisecondsPerSecond = 1000.0;
 constexpr double kPollPeriod_s = 0.01;
 /// A std_msgs/Header's serialised start: uint32 seq, then the stamp as uint32 seconds and nanoseconds.
@@ -77,15 +83,15 @@ std::string jsonString(const std::string& text) {
 
 class RateMeter {
  public:
-  RateMeter(double seconds, double skip_s) : seconds_(seconds), skip_s_(skip_s) {}
+  RateMeter(double seconds, double skip_s, std::uint32_t queue) : seconds_(seconds), skip_s_(skip_s), queue_(queue) {}
 
   void subscribe(ros::NodeHandle& handle, const std::string& topic) {
     auto record = std::make_shared<TopicRecord>();
     record->topic = topic;
     records_.push_back(record);
-    // Queue of 1: a late subscriber must not hide a slow publisher behind a backlog it works off later.
+    // A short queue: a late subscriber must not hide a slow publisher behind a backlog it works off later.
     subscribers_.push_back(handle.subscribe<topic_tools::ShapeShifter>(
-        topic, 1, [this, record](const topic_tools::ShapeShifter::ConstPtr& message) { onMessage(*record, *message); },
+        topic, queue_, [this, record](const topic_tools::ShapeShifter::ConstPtr& message) { onMessage(*record, *message); },
         ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay()));
   }
 
@@ -150,13 +156,14 @@ class RateMeter {
 
   double seconds_;
   double skip_s_;
+  std::uint32_t queue_;
   mutable std::mutex mutex_;
   std::vector<std::shared_ptr<TopicRecord>> records_;
   std::vector<ros::Subscriber> subscribers_;
 };
 
 int usage(const char* reason) {
-  std::fprintf(stderr, "cloth_topic_rate: %s\nusage: cloth_topic_rate [--seconds S] [--wait S] [--skip S] TOPIC...\n",
+  std::fprintf(stderr, "cloth_topic_rate: %s\nusage: cloth_topic_rate [--seconds S] [--wait S] [--skip S] [--queue N] TOPIC...\n",
                reason);
   return 2;
 }
@@ -168,10 +175,12 @@ int main(int argc, char** argv) {
   double seconds = kDefaultSeconds;
   double wait_s = kDefaultWait_s;
   double skip_s = kDefaultSkip_s;
+  double queue = kDefaultQueue;
   std::vector<std::string> topics;
   for (int i = 1; i < argc; ++i) {
     const std::string argument = argv[i];
-    double* value = argument == "--seconds" ? &seconds : argument == "--wait" ? &wait_s : argument == "--skip" ? &skip_s : nullptr;
+    double* value = argument == "--seconds" ? &seconds : argument == "--wait" ? &wait_s : argument == "--skip" ? &skip_s
+                    : argument == "--queue" ? &queue : nullptr;
     if (value) {
       if (i + 1 >= argc) return usage(("missing the value of " + argument).c_str());
       char* end = nullptr;
@@ -185,9 +194,10 @@ int main(int argc, char** argv) {
   }
   if (topics.empty()) return usage("no topic given");
   if (seconds <= 0.0) return usage("--seconds must be positive");
+  if (queue < 1.0 || queue > kMaxQueue || queue != std::floor(queue)) return usage("--queue must be a whole number in [1, 1000]");
 
   ros::NodeHandle handle;
-  RateMeter meter(seconds, skip_s);
+  RateMeter meter(seconds, skip_s, static_cast<std::uint32_t>(queue));
   for (const std::string& topic : topics) meter.subscribe(handle, topic);
   // Two threads: a 5 MB message being copied on one topic does not delay the other's arrival times.
   ros::AsyncSpinner spinner(2);

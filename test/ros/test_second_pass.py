@@ -7,7 +7,8 @@
   ("stopped after 18446744073709548616 frames" before).
 - A flood of ~grasp (GRAB 16 ids, RELEASE them, again and again) beside ~wind as fast as this process can
   publish, ending in RELEASE of all 16 ids: nothing is held afterwards (diagnostics "grasps held").
-- A scene reset by the recovery says which grasps it let go: a diagnostics ERROR naming the ids.
+- A scene reset by the recovery says which grasps it let go: a diagnostics ERROR naming the ids; and
+  ~state counts on from frame 0, every frame once, its stamps rising (frames are counted from the reset).
 """
 import os
 import re
@@ -33,6 +34,7 @@ DEADLINE_S = 30.0
 MAX_STEP_FRAMES = 10000  # ClothNode::kMaxStepFrames
 GRASP_IDS = range(16)    # Simulation::kMaxGrasps
 FLOOD_ROUNDS = 40
+FRAMES_AFTER_RESET = 20  # ~state messages read after the recovery's frame 0
 HEADER_BYTES = 32        # doc/STATE_FILE.md
 CHECKSUM_OFFSET = 24
 SECTION_HEADER_BYTES = 12  # tag and length
@@ -261,10 +263,34 @@ class SecondPass(unittest.TestCase):
             f.write(bytes(data))
         loaded = service(SMALL, "load_state", LoadState)(path)
         self.assertTrue(loaded.success, loaded.message)
+        lock = threading.Lock()
+        states = []
+
+        def on_state(message):
+            with lock:
+                states.append((message.frame, message.header.stamp))
+
+        subscriber = rospy.Subscriber(SMALL + "/state", ClothState, on_state, queue_size=1000)
+        self.assertTrue(wait_for(lambda: subscriber.get_num_connections() > 0), "no connection to ~state")
+
+        def after_reset():
+            with lock:
+                zeros = [k for k, (frame, _) in enumerate(states) if frame == 0]
+                return states[zeros[-1]:] if zeros else []
+
         self.assertTrue(pause(False).success)
         self.assertTrue(wait_for(lambda: self.diagnostics.seen(
             SMALL, lambda entry: entry["level"] == 2 and "released grasp ids 77" in entry["message"])),
             "no diagnostics ERROR naming grasp 77; last: %s" % self.diagnostics.of(SMALL))
+        self.assertTrue(wait_for(lambda: len(after_reset()) > FRAMES_AFTER_RESET),
+                        "no frame 0 and %d after it on ~state: %s" % (FRAMES_AFTER_RESET, states[-5:]))
+        subscriber.unregister()
+        run = after_reset()[:FRAMES_AFTER_RESET + 1]
+        frames = [frame for frame, _ in run]
+        self.assertEqual(frames, list(range(len(run))), "frames after the reset missing or repeated: %s" % frames)
+        stamps = [stamp.to_sec() for _, stamp in run]
+        self.assertTrue(all(later > earlier for earlier, later in zip(stamps, stamps[1:])),
+                        "stamps after the reset not rising: %s" % stamps)
 
 
 if __name__ == "__main__":

@@ -88,6 +88,10 @@ class ClothNode {
   static constexpr int kMaxCatchUpFrames = 5;
   /// Most frames one tick catches up under /use_sim_time; a bigger leap of /clock is not simulated.
   static constexpr int kMaxSimTimeCatchUpFrames = 500;
+  /// ~state messages roscpp holds per subscriber: a wall-time tick publishes up to kMaxCatchUpFrames (the
+  /// frames it caught up on, then its own), one spare. Under /use_sim_time a /clock step of more frames
+  /// sends more, back to back, and a subscriber keeps the newest of them.
+  static constexpr std::uint32_t kStateQueue = kMaxCatchUpFrames + 1;
   /// ~grasp messages the subscriber holds for its receiving thread. That thread only files each one into
   /// GraspCommandQueue (microseconds), so this is reached only by a burst far beyond any hand's rate; the
   /// last command per id survives in the GraspCommandQueue whatever the spin thread is doing.
@@ -127,9 +131,14 @@ class ClothNode {
   void install(std::unique_ptr<core::Simulation> simulation);
 
   void onTimer(const ros::TimerEvent& event);
-  /// Advances up to `frames` frames; stops at, and returns false for, a frame the core rolled back.
-  bool advanceFrames(int frames);
-  void publish(const ros::Time& stamp);
+  /// Advances up to `frames` frames; stops at, and returns false for, a frame the core rolled back. With
+  /// `publish_between`, each frame but the last goes out on ~state (stamped with its frame time) before the
+  /// next is computed, so a tick that catches up still gives ~state every frame; the caller publishes the last.
+  bool advanceFrames(int frames, bool publish_between = false);
+  /// Everything the node publishes each tick; ~state only if `with_state`.
+  void publish(const ros::Time& stamp, bool with_state = true);
+  /// ~state alone, while someone subscribes and every field is finite; counted for the diagnostics' rate.
+  void publishState(const ros::Time& stamp);
   /// The ROS time at which frame `frame` ends (from the anchor), or now if the clock is not anchored yet.
   ros::Time frameTime(std::uint64_t frame) const;
   void reanchor();
@@ -209,6 +218,10 @@ class ClothNode {
   diagnostic_updater::Updater diagnostics_;
 
   bool paused_ = false;
+  /// The frame the last ~state showed (counted whether or not anyone subscribed): a running tick with no
+  /// new frame, the twin roscpp fires at once after a late tick, does not repeat it.
+  std::uint64_t last_state_frame_ = 0;
+  bool state_published_ = false;
   /// ~step's service runs on its own queue and thread, so its wait never blocks the spin thread.
   ros::CallbackQueue step_queue_;
   std::unique_ptr<ros::AsyncSpinner> step_spinner_;

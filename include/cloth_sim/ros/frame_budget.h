@@ -13,7 +13,7 @@ class FrameBudget {
   struct Verdict {
     double mean_step_cost_ms = 0.0;  ///< wall time per frame advanced, mean over the window
     double budget_ms = 0.0;          ///< the frame period: the most a frame may cost to keep the frame rate
-    double tick_rate_hz = 0.0;       ///< timer ticks (each publishes ~state once) per wall second
+    double state_rate_hz = 0.0;      ///< ~state messages (one per frame, or per tick while paused) per wall second
     int frames = 0;                  ///< frames advanced in the window
     bool over_budget = false;        ///< frames were advanced and cost more than the budget on average
     /// e.g. "physics 35.2 ms/frame > 20.0 ms budget (50 Hz): ~state at 28.4 Hz"; empty when within it.
@@ -22,8 +22,8 @@ class FrameBudget {
 
   /// One frame advanced, costing `cost_ms` of wall time.
   void addFrame(double cost_ms);
-  /// One timer tick (one ~state publish).
-  void addTick();
+  /// One ~state message due (sent if anyone subscribes).
+  void addStateMessage();
   /// The window's verdict for frames due every `frame_period_s`, over `window_wall_s` of wall time.
   Verdict judge(double frame_period_s, double window_wall_s) const;
   /// Starts a new window.
@@ -32,7 +32,7 @@ class FrameBudget {
  private:
   double cost_sum_ms_ = 0.0;
   int frames_ = 0;
-  int ticks_ = 0;
+  int state_messages_ = 0;
 };
 
 }  // namespace cloth_sim
