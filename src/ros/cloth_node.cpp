@@ -184,9 +184,11 @@ bool ClothNode::start(std::string* error) {
 
   timer_ = pnh_.createTimer(ros::Duration(simulation_->options().frameDuration_s()), &ClothNode::onTimer, this);
   signal_timer_ = pnh_.createWallTimer(ros::WallDuration(kSignalPoll_s), &ClothNode::onSignalPoll, this);
-  ROS_INFO("cloth_node: scene '%s', %dx%d particles, %s with %d substeps, %.0f Hz, frame '%s'",
+  const std::string substeps = simulation_->options().autoSubsteps() ? std::string(core::kAutoSubstepsName)
+                                                                      : std::to_string(simulation_->options().substeps);
+  ROS_INFO("cloth_node: scene '%s', %dx%d particles, %s with %s substeps, %.0f Hz, frame '%s'",
            simulation_->options().name.c_str(), simulation_->grid().rows, simulation_->grid().cols,
-           core::integratorName(simulation_->options().integrator), simulation_->options().substeps,
+           core::integratorName(simulation_->options().integrator), substeps.c_str(),
            simulation_->options().frame_rate_hz, frame_id_.c_str());
   return true;
 }
