@@ -46,7 +46,18 @@ std::string quoted(const std::string& text) {
 }
 
 std::string describe(const YAML::Node& node) {
-  if (node.IsScalar()) return quoted(node.Scalar());
+  if (node.IsScalar()) {
+    // A parameter carries its XmlRpc type as a tag (conversions.cpp): say it, since 10.0 reads back as '10'.
+    const std::string& tag = node.Tag();
+    const std::size_t prefix = std::char_traits<char>::length(kCoreTagPrefix);
+    if (tag.compare(0, prefix, kCoreTagPrefix) == 0) {
+      const std::string type = tag.substr(prefix);
+      const char* kind = type == "float" ? " (a floating-point number)" : type == "int" ? " (an integer)"
+                         : type == "str" ? " (a string)" : type == "bool" ? " (a bool)" : "";
+      return quoted(node.Scalar()) + kind;
+    }
+    return quoted(node.Scalar());
+  }
   if (node.IsSequence()) return "a list of " + std::to_string(node.size());
   if (node.IsMap()) return "a map";
   return "nothing";
@@ -110,7 +121,14 @@ std::vector<T> readList(const YAML::Node& node, const std::vector<std::string>& 
         throw WrongType{"maps with the keys " + known + " (got " + quoted(name) + ")"};
       }
       if (!seen.insert(name).second) throw WrongType{"maps with each key once ('" + name + "' twice)"};
-      apply(name, field.second, item);
+      try {
+        apply(name, field.second, item);
+      } catch (const WrongType& wrong) {
+        // Name the entry and the field: "a list of 1: expected an integer" left the user guessing which.
+        const std::string where = " ([" + std::to_string(items.size()) + "]." + name + " = " + describe(field.second) + ")";
+        const bool whole = wrong.expected.compare(0, 5, "maps ") == 0;
+        throw WrongType{(whole ? wrong.expected : "maps whose " + name + " is " + wrong.expected) + where};
+      }
     }
     items.push_back(item);
   }
@@ -164,7 +182,12 @@ MaterialOptions readMaterial(const YAML::Node& node) {
   std::string missing;
   for (const auto& [name, member] : numbers) {
     if (node[name]) {
-      material.*member = readDouble(node[name]);
+      try {
+        material.*member = readDouble(node[name]);
+      } catch (const WrongType& wrong) {
+        throw WrongType{"a map whose " + std::string(name) + " is " + wrong.expected + " (" + name + " = " +
+                        describe(node[name]) + ")"};
+      }
     } else if (base.empty() && std::string(name) != "damping") {
       missing += (missing.empty() ? "" : ", ") + std::string(name);
     }
@@ -351,14 +374,15 @@ std::map<std::string, Setter> makeSetters() {
     }
   };
   s["substeps"] = [](const YAML::Node& n, SceneOptions& o) {
+    const std::string expected = std::string("'") + kAutoSubstepsName + "' or an integer in [1, " +
+                                 std::to_string(OptionLimits::kMaxSubsteps) + "]";
     if (n.IsScalar() && n.Scalar() == kAutoSubstepsName) {
       o.substeps = SceneOptions::kAutoSubsteps;
       return;
     }
-    o.substeps = readInt(n);
+    o.substeps = readScalar<int>(n, expected.c_str(), {"int"});
     // 0 is how `auto` is stored; written as a number it is a mistake, not a request for auto.
-    if (o.substeps == SceneOptions::kAutoSubsteps) throw WrongType{std::string("'") + kAutoSubstepsName + "' or an integer in [1, " +
-                                                               std::to_string(OptionLimits::kMaxSubsteps) + "]"};
+    if (o.substeps == SceneOptions::kAutoSubsteps) throw WrongType{expected};
   };
   s["guard_retries"] = [](const YAML::Node& n, SceneOptions& o) { o.guard_retries = readBool(n); };
   s["sleep_speed"] = [](const YAML::Node& n, SceneOptions& o) { o.sleep_speed_m_per_s = readDouble(n); };

@@ -184,9 +184,11 @@ bool ClothNode::start(std::string* error) {
 
   timer_ = pnh_.createTimer(ros::Duration(simulation_->options().frameDuration_s()), &ClothNode::onTimer, this);
   signal_timer_ = pnh_.createWallTimer(ros::WallDuration(kSignalPoll_s), &ClothNode::onSignalPoll, this);
-  ROS_INFO("cloth_node: scene '%s', %dx%d particles, %s with %d substeps, %.0f Hz, frame '%s'",
+  const std::string substeps = simulation_->options().autoSubsteps() ? std::string(core::kAutoSubstepsName)
+                                                                      : std::to_string(simulation_->options().substeps);
+  ROS_INFO("cloth_node: scene '%s', %dx%d particles, %s with %s substeps, %.0f Hz, frame '%s'",
            simulation_->options().name.c_str(), simulation_->grid().rows, simulation_->grid().cols,
-           core::integratorName(simulation_->options().integrator), simulation_->options().substeps,
+           core::integratorName(simulation_->options().integrator), substeps.c_str(),
            simulation_->options().frame_rate_hz, frame_id_.c_str());
   return true;
 }
@@ -414,7 +416,7 @@ void ClothNode::onWind(const geometry_msgs::Vector3Stamped::ConstPtr& message) {
   geometry_msgs::Vector3Stamped wind = *message;
   const Eigen::Vector3d raw(wind.vector.x, wind.vector.y, wind.vector.z);
   if (!raw.allFinite() || raw.norm() > core::OptionLimits::kMaxWindSpeed_m_per_s) {
-    ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~wind (%g, %g, %g) m/s: must be finite and below %g m/s",
+    ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~wind (%g, %g, %g) m/s: must be finite and at most %g m/s",
                       raw.x(), raw.y(), raw.z(), core::OptionLimits::kMaxWindSpeed_m_per_s);
     return;
   }
@@ -572,18 +574,21 @@ std::string ClothNode::refuseStep(const StepJob& job) const {
   if (job.frames == 0 || job.frames > kMaxStepFrames) {
     return "frames = " + std::to_string(job.frames) + ": must be in [1, " + std::to_string(kMaxStepFrames) + "]";
   }
-  // The last frame's cost is the estimate (none yet: the overrun limit still bounds the call).
+  return stepOverBudget(job.frames);
+}
+
+std::string ClothNode::stepOverBudget(std::uint64_t frames) const {
+  // The last frame's cost is the estimate (none yet: the call's first frame gives one, runStepChunk).
   const double frame_cost_s = step_cost_ms_ / kMillisecondsPerSecond;
-  const double most_frames = frame_cost_s > 0.0 ? std::max(1.0, std::floor(kMaxStepWork_s / frame_cost_s)) : 0.0;
-  if (frame_cost_s > 0.0 && job.frames > most_frames) {
-    std::ostringstream reason;
-    reason << std::fixed << std::setprecision(1) << "frames = " << job.frames << " would take about "
-           << std::lround(job.frames * frame_cost_s) << " s at " << step_cost_ms_
-           << " ms per frame (the last frame's cost); one call may take at most " << kMaxStepWork_s
-           << " s: ask for at most " << static_cast<std::uint64_t>(most_frames) << " frames per call";
-    return reason.str();
-  }
-  return "";
+  if (frame_cost_s <= 0.0) return "";
+  const double most_frames = std::max(1.0, std::floor(kMaxStepWork_s / frame_cost_s));
+  if (static_cast<double>(frames) <= most_frames) return "";
+  std::ostringstream reason;
+  reason << std::fixed << std::setprecision(1) << "frames = " << frames << " would take about "
+         << std::lround(static_cast<double>(frames) * frame_cost_s) << " s at " << step_cost_ms_
+         << " ms per frame (the last frame's cost); one call may take at most " << kMaxStepWork_s
+         << " s: ask for at most " << static_cast<std::uint64_t>(most_frames) << " frames per call";
+  return reason.str();
 }
 
 void ClothNode::runStepChunk(const std::shared_ptr<StepJob>& job) {
@@ -594,6 +599,7 @@ void ClothNode::runStepChunk(const std::shared_ptr<StepJob>& job) {
       return;
     }
     job->started = true;
+    job->unestimated = step_cost_ms_ <= 0.0;
     job->start_time = std::chrono::steady_clock::now();
     active_step_ = job;
   }
@@ -622,6 +628,17 @@ void ClothNode::runStepChunk(const std::shared_ptr<StepJob>& job) {
       return;
     }
     ++job->frames_done;
+    if (job->unestimated) {
+      // After a scene change the call came with no cost to estimate from: its first frame's is checked
+      // against the frames left, as the call itself would have been.
+      job->unestimated = false;
+      const std::string over = stepOverBudget(job->frames - job->frames_done);
+      if (!over.empty()) {
+        finishStep(false, "stopped after 1 frames (the first since the scene changed, so the call could not be "
+                          "estimated before): the rest, " + over);
+        return;
+      }
+    }
   }
   finishStep(true, "advanced " + std::to_string(job->frames) + " frames");
 }

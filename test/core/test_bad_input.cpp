@@ -162,6 +162,30 @@ TEST(BadSceneFile, WrongTypesAreRefusedByName) {
   EXPECT_TRUE(mentions(refusalOf("spheres: {center: [0, 0, 0]}\n"), "a list of maps"));
 }
 
+TEST(BadSceneFile, AWrongTypeInsideAListOrAMaterialNamesTheEntryAndTheField) {
+  // Before: "cameras = a list of 1: expected an integer", naming neither the camera nor the field.
+  const std::string camera = refusalOf("cameras:\n  - {name: front, frame: f, width: 640.5}\n");
+  EXPECT_TRUE(mentions(camera, "maps whose width is an integer")) << camera;
+  EXPECT_TRUE(mentions(camera, "[0].width = '640.5'")) << camera;
+  const std::string second = refusalOf("spheres:\n  - {center: [0, 0, 0], radius: 0.1}\n  - {center: [0, 0, 1], radius: big}\n");
+  EXPECT_TRUE(mentions(second, "[1].radius = 'big'")) << second;
+  // A field's own refusal that already names it is kept, with the entry added.
+  const std::string noise = refusalOf("cameras:\n  - {name: front, frame: f, noise: loud}\n");
+  EXPECT_TRUE(mentions(noise, "maps whose noise is none or kinect ([0].noise = 'loud')")) << noise;
+  const std::string damping = refusalOf("material: {preset: denim, damping: abc}\n");
+  EXPECT_TRUE(mentions(damping, "a map whose damping is a number (damping = 'abc')")) << damping;
+  const std::string substeps = refusalOf("substeps: automatic\n");
+  EXPECT_TRUE(mentions(substeps, "'auto' or an integer in [1, ")) << substeps;
+}
+
+TEST(BadSceneFile, AParameterOfTheWrongTypeSaysWhichTypeItCameAs) {
+  // A parameter 10.0 reaches the reader as !!float "10": quoted alone it read as an integer.
+  const std::string rows = refusalOf("rows: !!float 10\n");
+  EXPECT_TRUE(mentions(rows, "rows = '10' (a floating-point number): expected an integer")) << rows;
+  EXPECT_TRUE(mentions(refusalOf("rows: !!str 40\n"), "'40' (a string)"));
+  EXPECT_TRUE(mentions(refusalOf("rows: forty\n"), "rows = 'forty': expected")) << "an untagged scene file's value stays as written";
+}
+
 TEST(BadSceneFile, AnExplicitTagThatDoesNotFitTheKeyIsRefused) {
   // Parameters reach the reader tagged with their XmlRpc type: `_name:=42` arrives as !!int 42.
   EXPECT_TRUE(mentions(refusalOf("name: !!int 42\n"), "name"));

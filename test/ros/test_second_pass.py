@@ -7,6 +7,8 @@
   ("stopped after 18446744073709548616 frames" before).
 - A flood of ~grasp (GRAB 16 ids, RELEASE them, again and again) beside ~wind as fast as this process can
   publish, ending in RELEASE of all 16 ids: nothing is held afterwards (diagnostics "grasps held").
+- A ~step called right after ~load_scene, with no frame's cost to estimate from, stops after its first frame
+  when the rest would take over 30 s (it ran on for 60 s before).
 - A scene reset by the recovery says which grasps it let go: a diagnostics ERROR naming the ids; and
   ~state counts on from frame 0, every frame once, its stamps rising (frames are counted from the reset).
 """
@@ -23,7 +25,7 @@ import zlib
 import rospy
 import rostest
 from cloth_sim.msg import ClothState, Grasp
-from cloth_sim.srv import LoadState, SaveState, Step
+from cloth_sim.srv import LoadScene, LoadState, SaveState, Step
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
 from std_srvs.srv import SetBool
@@ -199,6 +201,35 @@ class SecondPass(unittest.TestCase):
         self.assertLess(int(done.group(1)), frames, response.message)
         self.assertIn("~load_state", response.message)
         self.assertTrue(pause(False).success)
+
+    def test_a_step_right_after_load_scene_stops_after_its_first_frame_if_the_rest_would_take_too_long(self):
+        heavy = os.path.join(self.folder, "heavy.yaml")
+        with open(heavy, "w") as f:  # 8x8 at 2000 RK4 substeps: tens of ms a frame, 10000 frames far over 30 s
+            f.write("rows: 8\ncols: 8\nintegrator: rk4\nsubsteps: 2000\nsleep_speed: 0.0\n")
+        light = os.path.join(self.folder, "light.yaml")
+        with open(light, "w") as f:  # back to an 8x8 hanging sheet for the tests after this one
+            f.write("rows: 8\ncols: 8\n")
+        pause = service(SMALL, "pause", SetBool)
+        self.assertTrue(pause(True).success)
+        try:
+            loaded = service(SMALL, "load_scene", LoadScene)(heavy)
+            self.assertTrue(loaded.success, loaded.message)
+            started = time.monotonic()
+            answer = service(SMALL, "step", Step)(MAX_STEP_FRAMES)
+            print("the step after load_scene answered in %.1f s: %s" % (time.monotonic() - started, answer.message))
+            self.assertFalse(answer.success, answer.message)
+            self.assertIn("stopped after 1 frames", answer.message)
+            self.assertIn("would take about", answer.message)
+            self.assertIsNotNone(re.search(r"at most (\d+) frames", answer.message), answer.message)
+            # The next call has the first frame's cost to go by and is refused outright.
+            refusal = service(SMALL, "step", Step)(MAX_STEP_FRAMES)
+            self.assertFalse(refusal.success)
+            self.assertNotIn("stopped after", refusal.message)
+            self.assertIn("would take about", refusal.message)
+        finally:
+            restored = service(SMALL, "load_scene", LoadScene)(light)
+            self.assertTrue(pause(False).success)
+        self.assertTrue(restored.success, restored.message)
 
     def test_a_grasp_flood_ending_in_release_leaves_nothing_held(self):
         state = Latest(BUSY + "/state", ClothState)

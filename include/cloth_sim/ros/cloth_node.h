@@ -118,6 +118,9 @@ class ClothNode {
     /// Frames this job has advanced, counted as they are done: a difference of frame numbers underflowed
     /// when ~load_state put the counter back mid-step ("stopped after 18446744073709548616 frames").
     std::uint32_t frames_done = 0;
+    /// No frame had run since the scene changed when the call came, so it had no cost to estimate from:
+    /// its first frame's cost is checked against the rest instead.
+    bool unestimated = false;
     std::chrono::steady_clock::time_point start_time;
     cloth_sim::Step::Response response;
   };
@@ -161,6 +164,9 @@ class ClothNode {
   void runStepChunk(const std::shared_ptr<StepJob>& job);
   /// Why a new job may not run, or empty if it may.
   std::string refuseStep(const StepJob& job) const;
+  /// Why `frames` more frames at the last frame's cost would take more than kMaxStepWork_s; "" if not, or
+  /// if no frame has run since the scene changed (no cost to go by).
+  std::string stepOverBudget(std::uint64_t frames) const;
   void queueStepChunk(const std::shared_ptr<StepJob>& job);
   /// Fills the job's answer and wakes the service thread waiting for it.
   void answerStep(StepJob& job, bool success, const std::string& message);
