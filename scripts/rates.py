@@ -117,7 +117,8 @@ def summarise(statuses):
 
 def measure_rates(rate_tool, topics, seconds, skip_s=SKIP_S, queue=1):
     result = subprocess.run([rate_tool, "--seconds", str(seconds), "--skip", str(skip_s), "--wait", str(READY_S),
-                             "--queue", str(queue)] + topics, stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+                             "--queue", str(queue)] + topics,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
     lines = [line for line in result.stdout.splitlines() if line.startswith("{")]
     if not lines:
         raise RuntimeError("cloth_topic_rate printed nothing: " + result.stderr[-500:])
