@@ -45,18 +45,21 @@ std::string quoted(const std::string& text) {
   return "'" + shown + (text.size() > kMaxQuotedChars ? "...'" : "'");
 }
 
+/// The YAML core-schema type of an explicitly tagged node ("int", "float", "bool", "str", ...), or "" when
+/// it carries no such tag (a scene file's plain scalar).
+std::string coreTagType(const YAML::Node& node) {
+  const std::string& tag = node.Tag();
+  const std::size_t prefix = std::char_traits<char>::length(kCoreTagPrefix);
+  return tag.compare(0, prefix, kCoreTagPrefix) == 0 ? tag.substr(prefix) : std::string();
+}
+
 std::string describe(const YAML::Node& node) {
   if (node.IsScalar()) {
     // A parameter carries its XmlRpc type as a tag (conversions.cpp): say it, since 10.0 reads back as '10'.
-    const std::string& tag = node.Tag();
-    const std::size_t prefix = std::char_traits<char>::length(kCoreTagPrefix);
-    if (tag.compare(0, prefix, kCoreTagPrefix) == 0) {
-      const std::string type = tag.substr(prefix);
-      const char* kind = type == "float" ? " (a floating-point number)" : type == "int" ? " (an integer)"
-                         : type == "str" ? " (a string)" : type == "bool" ? " (a bool)" : "";
-      return quoted(node.Scalar()) + kind;
-    }
-    return quoted(node.Scalar());
+    const std::string type = coreTagType(node);
+    const char* kind = type == "float" ? " (a floating-point number)" : type == "int" ? " (an integer)"
+                       : type == "str" ? " (a string)" : type == "bool" ? " (a bool)" : "";
+    return quoted(node.Scalar()) + kind;
   }
   if (node.IsSequence()) return "a list of " + std::to_string(node.size());
   if (node.IsMap()) return "a map";
@@ -66,9 +69,8 @@ std::string describe(const YAML::Node& node) {
 /// True unless the node carries an explicit YAML core-schema tag (!!str, !!int, ...; parameters carry the
 /// one their XmlRpc type gives them) other than one of `allowed` ("int", "float", "bool", "str").
 bool tagAllows(const YAML::Node& node, std::initializer_list<const char*> allowed) {
-  const std::string& tag = node.Tag();
-  if (tag.compare(0, std::char_traits<char>::length(kCoreTagPrefix), kCoreTagPrefix) != 0) return true;
-  const std::string type = tag.substr(std::char_traits<char>::length(kCoreTagPrefix));
+  const std::string type = coreTagType(node);
+  if (type.empty()) return true;
   return std::any_of(allowed.begin(), allowed.end(), [&](const char* name) { return type == name; });
 }
 
@@ -125,9 +127,8 @@ std::vector<T> readList(const YAML::Node& node, const std::vector<std::string>& 
         apply(name, field.second, item);
       } catch (const WrongType& wrong) {
         // Name the entry and the field: "a list of 1: expected an integer" left the user guessing which.
-        const std::string where = " ([" + std::to_string(items.size()) + "]." + name + " = " + describe(field.second) + ")";
-        const bool whole = wrong.expected.compare(0, 5, "maps ") == 0;
-        throw WrongType{(whole ? wrong.expected : "maps whose " + name + " is " + wrong.expected) + where};
+        throw WrongType{"maps whose " + name + " is " + wrong.expected + " ([" + std::to_string(items.size()) + "]." +
+                        name + " = " + describe(field.second) + ")"};
       }
     }
     items.push_back(item);
@@ -255,10 +256,10 @@ std::vector<CameraOptions> readCameras(const YAML::Node& node) {
         if (f == "rate") c.rate_hz = readDouble(v);
         if (f == "min_range") c.min_range_m = readDouble(v);
         if (f == "max_range") c.max_range_m = readDouble(v);
-        if (f == "noise" && !parseDepthNoiseName(readString(v), &c.noise)) throw WrongType{"maps whose noise is none or kinect"};
+        if (f == "noise" && !parseDepthNoiseName(readString(v), &c.noise)) throw WrongType{"none or kinect"};
         if (f == "seed") {
           const int seed = readInt(v);
-          if (seed < 0) throw WrongType{"maps whose seed is an integer >= 0"};
+          if (seed < 0) throw WrongType{"an integer >= 0"};
           c.seed = static_cast<std::uint32_t>(seed);
         }
       });
@@ -402,7 +403,7 @@ std::map<std::string, Setter> makeSetters() {
         n, {"frame", "shape", "radius", "length", "size", "offset", "rpy"},
         [](const std::string& f, const YAML::Node& v, FrameCollider& c) {
           if (f == "frame") c.frame = readString(v);
-          if (f == "shape" && !parseShapeName(readString(v), &c.shape)) throw WrongType{"maps whose shape is sphere, capsule or box"};
+          if (f == "shape" && !parseShapeName(readString(v), &c.shape)) throw WrongType{"sphere, capsule or box"};
           if (f == "radius") c.radius_m = readDouble(v);
           if (f == "length") c.length_m = readDouble(v);
           if (f == "size") c.size_m = readVector(v);

@@ -319,7 +319,7 @@ void ClothNode::onTimer(const ros::TimerEvent&) {
   }
   // While paused, ~state repeats every tick (monitors and rviz keep seeing the cloth); while running it
   // comes once per frame.
-  publish(now, paused_ || !state_published_ || last_state_frame_ != simulation_->state().frame);
+  publish(now, paused_ || last_state_frame_ != simulation_->state().frame);
   diagnostics_.update();
 }
 
@@ -368,7 +368,6 @@ bool ClothNode::advanceFrames(int frames, bool publish_between) {
 void ClothNode::publishState(const ros::Time& stamp) {
   frame_budget_.addStateMessage();
   last_state_frame_ = simulation_->state().frame;
-  state_published_ = true;
   if (state_pub_.getNumSubscribers() == 0) return;
   const cloth_sim::ClothState state = toStateMessage(*simulation_, frame_id_, stamp);
   const std::vector<std::string> non_finite = nonFiniteFields(state);

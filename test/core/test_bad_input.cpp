@@ -169,7 +169,7 @@ TEST(BadSceneFile, AWrongTypeInsideAListOrAMaterialNamesTheEntryAndTheField) {
   EXPECT_TRUE(mentions(camera, "[0].width = '640.5'")) << camera;
   const std::string second = refusalOf("spheres:\n  - {center: [0, 0, 0], radius: 0.1}\n  - {center: [0, 0, 1], radius: big}\n");
   EXPECT_TRUE(mentions(second, "[1].radius = 'big'")) << second;
-  // A field's own refusal that already names it is kept, with the entry added.
+  // A field's own refusal (not a type: an unknown name) is worded the same way, with the entry added.
   const std::string noise = refusalOf("cameras:\n  - {name: front, frame: f, noise: loud}\n");
   EXPECT_TRUE(mentions(noise, "maps whose noise is none or kinect ([0].noise = 'loud')")) << noise;
   const std::string damping = refusalOf("material: {preset: denim, damping: abc}\n");

@@ -36,6 +36,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <memory>
+#include <optional>
 #include <mutex>
 #include <string>
 
@@ -224,10 +225,9 @@ class ClothNode {
   diagnostic_updater::Updater diagnostics_;
 
   bool paused_ = false;
-  /// The frame the last ~state showed (counted whether or not anyone subscribed): a running tick with no
-  /// new frame, the twin roscpp fires at once after a late tick, does not repeat it.
-  std::uint64_t last_state_frame_ = 0;
-  bool state_published_ = false;
+  /// The frame the last ~state showed (counted whether or not anyone subscribed; none before the first): a
+  /// running tick with no new frame, the twin roscpp fires at once after a late tick, does not repeat it.
+  std::optional<std::uint64_t> last_state_frame_;
   /// ~step's service runs on its own queue and thread, so its wait never blocks the spin thread.
   ros::CallbackQueue step_queue_;
   std::unique_ptr<ros::AsyncSpinner> step_spinner_;
