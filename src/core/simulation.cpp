@@ -201,6 +201,7 @@ ContactStats Simulation::integrateFrame(int substeps, StepReport* steps, SelfCol
   const ColliderSet& colliders = options_.colliders;
   const bool static_friction = options_.contact.friction > 0.0 &&
                                !(colliders.planes.empty() && colliders.boxes.empty() && colliders.spheres.empty());
+  integrator_->beginFrame(substeps);
   for (int k = 0; k < substeps; ++k) {
     const double t0_s = state_.time_s;
     const bool self_colliding = options_.self_collision.enabled;
