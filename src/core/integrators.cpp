@@ -231,13 +231,14 @@ StepReport ImplicitEuler::step(Dynamics& dynamics, double step_s, ClothState& st
   preconditioned_.resize(3, count);
   // A preconditioner carried over from an earlier substep may fit this system badly (the layers of a fold
   // landing change it within a frame): past kLaggedIterationFactor times the iterations of the step that
-  // set it up, the solve starts again from zero with one set up for this system.
+  // set it up, or where it stops being positive definite for this system, the solve starts again from
+  // zero with one set up for this system, within what is left of max_iterations (a cap on the step).
   const int lag_limit = kLaggedIterationFactor * std::max(prepared_iterations_, 1);
   int iteration = 0;
   double measured = 0.0;
   double reference = 0.0;
   double target = 0.0;
-  for (bool solved = false; !solved;) {
+  for (bool done = false; !done;) {
     // Baraff and Witkin's modified PCG: every residual and direction filtered to the free particles. Sums
     // do not depend on the thread count.
     for (Eigen::Index i = 0; i < count; ++i) {
@@ -251,10 +252,10 @@ StepReport ImplicitEuler::step(Dynamics& dynamics, double step_s, ClothState& st
     reference = rhs_norm > 0.0 ? rhs_norm : measured;
     target = options_.tolerance * options_.tolerance * reference;
     const int first_iteration = iteration;
-    solved = true;
-    while (iteration - first_iteration < options_.max_iterations && measured > target) {
+    bool gave_up = false;  // on a carried preconditioner
+    while (iteration < options_.max_iterations && measured > target) {
       if (lagged && iteration - first_iteration >= lag_limit) {
-        solved = false;
+        gave_up = true;
         break;
       }
       dynamics.systemProduct(h, direction_, product_);
@@ -266,31 +267,34 @@ StepReport ImplicitEuler::step(Dynamics& dynamics, double step_s, ClothState& st
         }
         return sum;
       }, partial_sums_);
-      if (!(curvature > 0.0)) {  // only with non-finite input (the system is positive definite)
-        solved = !lagged;        // or a carried preconditioner that no longer is
-        break;
-      }
+      if (!(curvature > 0.0)) break;  // only with non-finite input: the system is positive definite
       const double alpha = delta / curvature;
       forEachChunk(count, threads, [&](Eigen::Index begin, Eigen::Index end) {
         dv_.middleCols(begin, end - begin) += alpha * direction_.middleCols(begin, end - begin);
         residual_.middleCols(begin, end - begin) -= alpha * product_.middleCols(begin, end - begin);
       });
+      ++iteration;
       preconditioner.apply(residual_, preconditioned_);
       const double delta_next = dot(residual_, preconditioned_);
       measured = measured_by_preconditioner ? delta_next : normSquared(residual_);
+      // r^T z <= 0 for r != 0: the carried V-cycle is no longer positive definite for this system.
+      if (lagged && !(delta_next > 0.0) && measured > target) {
+        gave_up = true;
+        break;
+      }
       const double beta = delta_next / delta;
       forEachChunk(count, threads, [&](Eigen::Index begin, Eigen::Index end) {
         direction_.middleCols(begin, end - begin) =
             preconditioned_.middleCols(begin, end - begin) + beta * direction_.middleCols(begin, end - begin);
       });
       delta = delta_next;
-      ++iteration;
     }
-    if (!solved) {
+    if (lagged && (gave_up || !(measured <= target)) && iteration < options_.max_iterations) {
       setUp();
       lagged = false;
-    } else if (!lagged) {
-      prepared_iterations_ = iteration - first_iteration;
+    } else {
+      if (!lagged) prepared_iterations_ = iteration - first_iteration;
+      done = true;
     }
   }
   report.solver_iterations = iteration;

@@ -316,10 +316,9 @@ bool Simulation::leavesGuarantee(const FrameReport& report, const FrameEnvelope&
          envelope.stretch_ratio_before <= SelfCollision::kGuaranteedStretchRatio && report.self_collision.contacts > 0;
 }
 
-int Simulation::crossingsMade(const SelfCollisionStats& stats) const {
-  if (!options_.self_collision.enabled || !(stats.largest_stretch_ratio > SelfCollision::kGuaranteedStretchRatio)) {
-    return 0;
-  }
+int Simulation::crossingsMade(const SelfCollisionStats& stats, bool always) const {
+  if (!options_.self_collision.enabled) return 0;
+  if (!always && !(stats.largest_stretch_ratio > SelfCollision::kGuaranteedStretchRatio)) return 0;
   // Every pair, not only those of the over-stretched triangles: the twisted strip's crossings were near
   // pairs beside them.
   const std::vector<std::pair<int, int>> after = crossingTrianglePairs(grid_.triangles, state_.positions_m);
@@ -336,6 +335,7 @@ bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps,
   bool refined_for_guarantee = false;
   futile_doublings_ = 0;
   int crossing_refinements = 0;
+  int crossing_fallback_substeps = 0;  // the last computation the guard accepted but for a crossing
   for (int attempt = 0; attempt < guard_.attempts(options_.guard_retries); ++attempt) {
     const int substeps = std::min(guard_.substeps(first_substeps, attempt), OptionLimits::kMaxSubsteps);
     if (attempt > 0 && substeps == report->substeps_used) break;  // at the cap: the same again would fail again
@@ -371,12 +371,14 @@ bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps,
       // Where the guarantee was out of force, triangles may have passed through each other (near ones on the
       // grid, which it never covers, or far ones): a finer computation follows the layers more closely (the
       // twisted strip's crossings arose at 4 substeps a frame and not at 8: doc/PHYSICS.md). At the finest
-      // the guard tries, the frame is kept and says so.
-      const int crossed = crossingsMade(report->self_collision);
+      // the guard tries, the frame is kept and says so. Once refined for a crossing, a frame is checked
+      // whatever its stretch, so that a crossing the finer computation kept is not kept in silence.
+      const int crossed = crossingsMade(report->self_collision, crossing_refinements > 0);
       const int next_substeps = guard_.substeps(first_substeps, attempt + 1);
       if (crossed > 0 && crossing_refinements < kMostCrossingRefinements &&
           attempt + 1 < guard_.attempts(options_.guard_retries) && next_substeps <= OptionLimits::kMaxSubsteps) {
         ++crossing_refinements;
+        crossing_fallback_substeps = report->substeps_used;
         problem = std::to_string(crossed) + " triangle pairs passed through each other (self-collision stretch ratio " +
                   std::to_string(report->self_collision.largest_stretch_ratio) + ")";
       } else {
@@ -394,6 +396,22 @@ bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps,
     }
     report->rejection = problem + " with " + std::to_string(report->substeps_used) + " substeps";
     state_ = frame_start_;
+  }
+  if (crossing_fallback_substeps > 0) {
+    // The finer computations a crossing asked for all failed the guard: the frame is the last one it
+    // accepted, computed again (the same bits: nothing carries from one computation to the next), with its
+    // crossing reported, rather than rolled back.
+    const std::string rejection = report->rejection;
+    report->substeps_used = crossing_fallback_substeps;
+    report->steps = StepReport();
+    report->self_collision = SelfCollisionStats();
+    report->contacts = integrateFrame(report->substeps_used, &report->steps, &report->self_collision);
+    report->max_strain = maxStructuralStrain();
+    report->self_collision.crossed = crossingsMade(report->self_collision, true);
+    report->rejection = rejection;
+    futile_doublings_ = 0;
+    energy_cache_valid_ = false;
+    return true;
   }
   report->max_strain = maxStructuralStrain();
   return false;

@@ -190,13 +190,15 @@ class ImplicitEuler final : public Integrator {
   IntegratorKind kind() const override { return IntegratorKind::kImplicitEuler; }
   int order() const override { return 1; }
   StepReport step(Dynamics& dynamics, double step_s, ClothState& state) override;
-  /// The preconditioner set up at a frame's first substep serves its later ones, while their step and
-  /// constrained particles are the same: the system changes little over one frame, and conjugate gradients
-  /// converge to the same tolerance with a preconditioner of a nearby system (measured in
+  /// The preconditioner's last setup within a frame (at its first substep, or at one that would not carry
+  /// it) serves the frame's later substeps, while their step and constrained particles are the same and
+  /// their system is close (kMaxCarriedDrift): the system changes little over one frame, and conjugate
+  /// gradients converge to the same tolerance with a preconditioner of a nearby system (measured in
   /// doc/BENCHMARKS.md, "One preconditioner a frame"). Only the stopping norm is set up at every step.
   void beginFrame(int steps) override;
   /// A carried preconditioner's solve that takes more than this many times the iterations of the one it was
-  /// set up for is started again with one set up for its own system.
+  /// set up for, that finds it no longer positive definite (r^T z <= 0), or that stops above the tolerance,
+  /// is started again from zero with one set up for its own system, within the same max_iterations.
   static constexpr int kLaggedIterationFactor = 2;
   /// A preconditioner is carried to a later substep only while no particle's inverted diagonal block has
   /// changed by more than this fraction of its largest entry since it was set up. Measured on the 64 x 64

@@ -268,10 +268,10 @@ class Simulation {
   /// above SelfCollision::kGuaranteedStretchRatio, from at most it) while layers touched.
   static bool leavesGuarantee(const FrameReport& report, const FrameEnvelope& envelope);
   /// Triangle pairs passing through each other after the frame (state_) that did not at its start
-  /// (frame_start_), counted only where the frame took self-collision's guarantee out of force (stats'
-  /// largest stretch ratio above 1), where every crossing measured arose (doc/PHYSICS.md): elsewhere the
-  /// guarantee covers all pairs but those near on the rest grid.
-  int crossingsMade(const SelfCollisionStats& stats) const;
+  /// (frame_start_), counted where the frame took self-collision's guarantee out of force (stats' largest
+  /// stretch ratio above 1), where every crossing measured arose (doc/PHYSICS.md), or `always`: elsewhere
+  /// the guarantee covers all pairs but those near on the rest grid.
+  int crossingsMade(const SelfCollisionStats& stats, bool always) const;
   /// The energy and strain budgets of the frame about to be computed, from the state and the inputs.
   FrameEnvelope frameEnvelope() const;
   /// Computes the frame from state_ (= frame_start_) with the guard's attempts; false (state restored)
