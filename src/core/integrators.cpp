@@ -4,7 +4,9 @@
 
 #include "parallel.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace cloth_sim::core {
 
@@ -140,6 +142,17 @@ double residualDot(const Eigen::Matrix3Xd& a, const Eigen::Matrix3Xd& b, Eigen::
   return sum;
 }
 
+/// The largest change, over the particles, of an inverted diagonal block (xx yy zz xy xz yz) from `before`
+/// to `now`, relative to the block's largest entry before.
+double blockDrift(const Eigen::Matrix<double, 6, Eigen::Dynamic>& before, const Eigen::Matrix<double, 6, Eigen::Dynamic>& now) {
+  if (before.cols() != now.cols()) return std::numeric_limits<double>::infinity();
+  double drift = 0.0;
+  for (Eigen::Index i = 0; i < now.cols(); ++i) {
+    drift = std::max(drift, (now.col(i) - before.col(i)).cwiseAbs().maxCoeff() / before.col(i).cwiseAbs().maxCoeff());
+  }
+  return drift;
+}
+
 }  // namespace
 
 ImplicitEuler::ImplicitEuler(const SolverOptions& options)
@@ -184,7 +197,19 @@ StepReport ImplicitEuler::step(Dynamics& dynamics, double step_s, ClothState& st
   // blocks), so the tolerance means the same residual, and the same cloth, for every preconditioner.
   norm_->setup(dynamics, h, free_);
   Preconditioner& preconditioner = preconditioner_ ? *preconditioner_ : *norm_;
-  if (preconditioner_) preconditioner_->setup(dynamics, h, free_);
+  const bool in_frame = frame_steps_left_ > 0;
+  frame_steps_left_ = std::max(frame_steps_left_ - 1, 0);
+  bool lagged = preconditioner_ && in_frame && preconditioner_ready_ && h == prepared_step_s_ &&
+                prepared_free_.size() == free_.size() && free_ == prepared_free_ &&
+                blockDrift(prepared_blocks_, norm_->inverseBlocks()) <= kMaxCarriedDrift;
+  const auto setUp = [&]() {
+    preconditioner_->setup(dynamics, h, free_);
+    preconditioner_ready_ = in_frame;
+    prepared_step_s_ = h;
+    prepared_free_ = free_;
+    prepared_blocks_ = norm_->inverseBlocks();
+  };
+  if (preconditioner_ && !lagged) setUp();
   const bool measured_by_preconditioner = !preconditioner_;
   const int threads = dynamics.threads();
   const auto dot = [&](const Eigen::Matrix3Xd& a, const Eigen::Matrix3Xd& b) {
@@ -199,48 +224,78 @@ StepReport ImplicitEuler::step(Dynamics& dynamics, double step_s, ClothState& st
       return residualDot(r, measured_, begin, end);
     }, partial_sums_);
   };
-
-  // Baraff and Witkin's modified PCG: every residual and direction filtered to the free particles. Sums
-  // do not depend on the thread count.
-  dynamics.systemProduct(h, dv_, product_);
-  residual_ = (rhs_ - product_) * free_.asDiagonal();
-  preconditioner.apply(residual_, direction_);
-  double delta = dot(residual_, direction_);
-  double measured = measured_by_preconditioner ? delta : normSquared(residual_);
   // Measured against the right-hand side, never against the first residual: a poor start must not
   // loosen the tolerance.
   product_ = rhs_ * free_.asDiagonal();
   const double rhs_norm = normSquared(product_);
-  const double reference = rhs_norm > 0.0 ? rhs_norm : measured;
-  const double target = options_.tolerance * options_.tolerance * reference;
   preconditioned_.resize(3, count);
+  // A preconditioner carried over from an earlier substep may fit this system badly (the layers of a fold
+  // landing change it within a frame): past kLaggedIterationFactor times the iterations of the step that
+  // set it up, or where it stops being positive definite for this system, the solve starts again from
+  // zero with one set up for this system, within what is left of max_iterations (a cap on the step).
+  const int lag_limit = kLaggedIterationFactor * std::max(prepared_iterations_, 1);
   int iteration = 0;
-  while (iteration < options_.max_iterations && measured > target) {
-    dynamics.systemProduct(h, direction_, product_);
-    const double curvature = deterministicSum(count, threads, [&](Eigen::Index begin, Eigen::Index end) {
-      double sum = 0.0;
-      for (Eigen::Index i = begin; i < end; ++i) {
-        product_.col(i) *= free_[i];
-        sum += direction_.col(i).dot(product_.col(i));
+  double measured = 0.0;
+  double reference = 0.0;
+  double target = 0.0;
+  for (bool done = false; !done;) {
+    // Baraff and Witkin's modified PCG: every residual and direction filtered to the free particles. Sums
+    // do not depend on the thread count.
+    for (Eigen::Index i = 0; i < count; ++i) {
+      if (free_[i] != 0.0) dv_.col(i).setZero();
+    }
+    dynamics.systemProduct(h, dv_, product_);
+    residual_ = (rhs_ - product_) * free_.asDiagonal();
+    preconditioner.apply(residual_, direction_);
+    double delta = dot(residual_, direction_);
+    measured = measured_by_preconditioner ? delta : normSquared(residual_);
+    reference = rhs_norm > 0.0 ? rhs_norm : measured;
+    target = options_.tolerance * options_.tolerance * reference;
+    const int first_iteration = iteration;
+    bool gave_up = false;  // on a carried preconditioner
+    while (iteration < options_.max_iterations && measured > target) {
+      if (lagged && iteration - first_iteration >= lag_limit) {
+        gave_up = true;
+        break;
       }
-      return sum;
-    }, partial_sums_);
-    if (!(curvature > 0.0)) break;  // only with non-finite input: the system is positive definite
-    const double alpha = delta / curvature;
-    forEachChunk(count, threads, [&](Eigen::Index begin, Eigen::Index end) {
-      dv_.middleCols(begin, end - begin) += alpha * direction_.middleCols(begin, end - begin);
-      residual_.middleCols(begin, end - begin) -= alpha * product_.middleCols(begin, end - begin);
-    });
-    preconditioner.apply(residual_, preconditioned_);
-    const double delta_next = dot(residual_, preconditioned_);
-    measured = measured_by_preconditioner ? delta_next : normSquared(residual_);
-    const double beta = delta_next / delta;
-    forEachChunk(count, threads, [&](Eigen::Index begin, Eigen::Index end) {
-      direction_.middleCols(begin, end - begin) =
-          preconditioned_.middleCols(begin, end - begin) + beta * direction_.middleCols(begin, end - begin);
-    });
-    delta = delta_next;
-    ++iteration;
+      dynamics.systemProduct(h, direction_, product_);
+      const double curvature = deterministicSum(count, threads, [&](Eigen::Index begin, Eigen::Index end) {
+        double sum = 0.0;
+        for (Eigen::Index i = begin; i < end; ++i) {
+          product_.col(i) *= free_[i];
+          sum += direction_.col(i).dot(product_.col(i));
+        }
+        return sum;
+      }, partial_sums_);
+      if (!(curvature > 0.0)) break;  // only with non-finite input: the system is positive definite
+      const double alpha = delta / curvature;
+      forEachChunk(count, threads, [&](Eigen::Index begin, Eigen::Index end) {
+        dv_.middleCols(begin, end - begin) += alpha * direction_.middleCols(begin, end - begin);
+        residual_.middleCols(begin, end - begin) -= alpha * product_.middleCols(begin, end - begin);
+      });
+      ++iteration;
+      preconditioner.apply(residual_, preconditioned_);
+      const double delta_next = dot(residual_, preconditioned_);
+      measured = measured_by_preconditioner ? delta_next : normSquared(residual_);
+      // r^T z <= 0 for r != 0: the carried V-cycle is no longer positive definite for this system.
+      if (lagged && !(delta_next > 0.0) && measured > target) {
+        gave_up = true;
+        break;
+      }
+      const double beta = delta_next / delta;
+      forEachChunk(count, threads, [&](Eigen::Index begin, Eigen::Index end) {
+        direction_.middleCols(begin, end - begin) =
+            preconditioned_.middleCols(begin, end - begin) + beta * direction_.middleCols(begin, end - begin);
+      });
+      delta = delta_next;
+    }
+    if (lagged && (gave_up || !(measured <= target)) && iteration < options_.max_iterations) {
+      setUp();
+      lagged = false;
+    } else {
+      if (!lagged) prepared_iterations_ = iteration - first_iteration;
+      done = true;
+    }
   }
   report.solver_iterations = iteration;
   report.residual = reference > 0.0 ? std::sqrt(std::max(measured, 0.0) / reference) : 0.0;
@@ -250,6 +305,11 @@ StepReport ImplicitEuler::step(Dynamics& dynamics, double step_s, ClothState& st
   state.positions_m += h * state.velocities_m_per_s;
   state.time_s += h;
   return report;
+}
+
+void ImplicitEuler::beginFrame(int steps) {
+  frame_steps_left_ = std::max(steps, 0);
+  preconditioner_ready_ = false;
 }
 
 void ImplicitEuler::subtractSolveShortfall(double step_s, Eigen::Matrix3Xd& forces_N) const {

@@ -36,6 +36,20 @@ bool shareParticle(const int* a, const int* b) {
   return false;
 }
 
+Box triangleBox(const std::vector<int>& triangles, const Eigen::Matrix3Xd& positions_m, int t) {
+  Box box;
+  box.min = box.max = positions_m.col(triangles[3 * t]);
+  for (int c = 1; c < 3; ++c) {
+    box.min = box.min.cwiseMin(positions_m.col(triangles[3 * t + c]));
+    box.max = box.max.cwiseMax(positions_m.col(triangles[3 * t + c]));
+  }
+  return box;
+}
+
+bool boxesOverlap(const Box& a, const Box& b) {
+  return !((a.max.array() < b.min.array()).any() || (b.max.array() < a.min.array()).any());
+}
+
 bool trianglesCross(const Eigen::Matrix3Xd& x, const int* a, const int* b) {
   for (int e = 0; e < 3; ++e) {
     if (segmentCrossesTriangle(x.col(a[e]), x.col(a[(e + 1) % 3]), x.col(b[0]), x.col(b[1]), x.col(b[2]))) return true;
@@ -76,11 +90,7 @@ std::vector<std::pair<int, int>> crossingTrianglePairs(const std::vector<int>& t
   double longest_m = 0.0;
   for (int t = 0; t < count; ++t) {
     Box& box = boxes[static_cast<std::size_t>(t)];
-    box.min = box.max = positions_m.col(triangles[3 * t]);
-    for (int c = 1; c < 3; ++c) {
-      box.min = box.min.cwiseMin(positions_m.col(triangles[3 * t + c]));
-      box.max = box.max.cwiseMax(positions_m.col(triangles[3 * t + c]));
-    }
+    box = triangleBox(triangles, positions_m, t);
     longest_m = std::max(longest_m, (box.max - box.min).maxCoeff());
   }
   if (!(longest_m > 0.0) || !std::isfinite(longest_m)) return crossing;
@@ -99,7 +109,6 @@ std::vector<std::pair<int, int>> crossingTrianglePairs(const std::vector<int>& t
       }
     }
   }
-  std::vector<std::pair<int, int>> candidates;
   for (const auto& [key, members] : cells) {
     for (std::size_t i = 0; i < members.size(); ++i) {
       for (std::size_t j = i + 1; j < members.size(); ++j) {
@@ -107,19 +116,22 @@ std::vector<std::pair<int, int>> crossingTrianglePairs(const std::vector<int>& t
         const int b = std::max(members[i], members[j]);
         const Box& ba = boxes[static_cast<std::size_t>(a)];
         const Box& bb = boxes[static_cast<std::size_t>(b)];
-        if ((ba.max.array() < bb.min.array()).any() || (bb.max.array() < ba.min.array()).any()) continue;
-        candidates.emplace_back(a, b);
+        if (!boxesOverlap(ba, bb)) continue;
+        // Two overlapping boxes share every cell from the larger of their low corners on: the pair is
+        // tested in that first one only (once, without sorting the candidates).
+        const Eigen::Array3d first = (ba.min.cwiseMax(bb.min) / cell_m).array().floor();
+        if (cellKey(static_cast<std::int64_t>(first.x()), static_cast<std::int64_t>(first.y()),
+                    static_cast<std::int64_t>(first.z())) != key) {
+          continue;
+        }
+        const int* ta = &triangles[static_cast<std::size_t>(3 * a)];
+        const int* tb = &triangles[static_cast<std::size_t>(3 * b)];
+        if (!shareParticle(ta, tb) && trianglesCross(positions_m, ta, tb)) crossing.emplace_back(a, b);
       }
     }
   }
-  // A pair in several shared cells is listed once; sorting also fixes the order whatever the hash's.
-  std::sort(candidates.begin(), candidates.end());
-  candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
-  for (const auto& [a, b] : candidates) {
-    const int* ta = &triangles[static_cast<std::size_t>(3 * a)];
-    const int* tb = &triangles[static_cast<std::size_t>(3 * b)];
-    if (!shareParticle(ta, tb) && trianglesCross(positions_m, ta, tb)) crossing.emplace_back(a, b);
-  }
+  // In increasing order, whatever the hash's.
+  std::sort(crossing.begin(), crossing.end());
   return crossing;
 }
 

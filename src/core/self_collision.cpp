@@ -40,6 +40,8 @@ SelfCollisionStats& SelfCollisionStats::operator+=(const SelfCollisionStats& oth
   frozen += other.frozen;
   forced += other.forced;
   stretch_ratio = other.stretch_ratio;  // the latest substep's
+  largest_stretch_ratio = std::max({largest_stretch_ratio, other.largest_stretch_ratio, other.stretch_ratio});
+  crossed += other.crossed;
   return *this;
 }
 

@@ -1,8 +1,11 @@
 #include "cloth_sim/core/simulation.h"
 
+#include "cloth_sim/core/mesh_check.h"
+
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <limits>
 #include <sstream>
 #include <stdexcept>
@@ -198,6 +201,7 @@ ContactStats Simulation::integrateFrame(int substeps, StepReport* steps, SelfCol
   const ColliderSet& colliders = options_.colliders;
   const bool static_friction = options_.contact.friction > 0.0 &&
                                !(colliders.planes.empty() && colliders.boxes.empty() && colliders.spheres.empty());
+  integrator_->beginFrame(substeps);
   for (int k = 0; k < substeps; ++k) {
     const double t0_s = state_.time_s;
     const bool self_colliding = options_.self_collision.enabled;
@@ -312,10 +316,26 @@ bool Simulation::leavesGuarantee(const FrameReport& report, const FrameEnvelope&
          envelope.stretch_ratio_before <= SelfCollision::kGuaranteedStretchRatio && report.self_collision.contacts > 0;
 }
 
+int Simulation::crossingsMade(const SelfCollisionStats& stats, bool always) const {
+  if (!options_.self_collision.enabled) return 0;
+  if (!always && !(stats.largest_stretch_ratio > SelfCollision::kGuaranteedStretchRatio)) return 0;
+  // Every pair, not only those of the over-stretched triangles: the twisted strip's crossings were near
+  // pairs beside them.
+  const std::vector<std::pair<int, int>> after = crossingTrianglePairs(grid_.triangles, state_.positions_m);
+  if (after.empty()) return 0;
+  // Pairs that crossed before the frame (the guard kept such a frame, saying so) are not new.
+  const std::vector<std::pair<int, int>> before = crossingTrianglePairs(grid_.triangles, frame_start_.positions_m);
+  std::vector<std::pair<int, int>> made;
+  std::set_difference(after.begin(), after.end(), before.begin(), before.end(), std::back_inserter(made));
+  return static_cast<int>(made.size());
+}
+
 bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps, FrameReport* report) {
   std::string problem;
   bool refined_for_guarantee = false;
-  futile_refinement_ = false;
+  futile_doublings_ = 0;
+  int crossing_refinements = 0;
+  int crossing_fallback_substeps = 0;  // the last computation the guard accepted but for a crossing
   for (int attempt = 0; attempt < guard_.attempts(options_.guard_retries); ++attempt) {
     const int substeps = std::min(guard_.substeps(first_substeps, attempt), OptionLimits::kMaxSubsteps);
     if (attempt > 0 && substeps == report->substeps_used) break;  // at the cap: the same again would fail again
@@ -348,17 +368,50 @@ bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps,
                 std::to_string(SelfCollision::kGuaranteedStretchRatio) + ")";
       refined_for_guarantee = true;
     } else if (problem.empty()) {
-      // A refinement that did not bring the guarantee back (a hand stretching the cloth beside it, which
-      // more substeps do not change) is not worth its cost in the frames after this one.
-      futile_refinement_ = refined_for_guarantee &&
-                           report->self_collision.stretch_ratio > SelfCollision::kGuaranteedStretchRatio;
-      cached_energies_ = energies_after;
-      cached_strain_ = report->max_strain;
-      energy_cache_valid_ = true;
-      return true;
+      // Where the guarantee was out of force, triangles may have passed through each other (near ones on the
+      // grid, which it never covers, or far ones): a finer computation follows the layers more closely (the
+      // twisted strip's crossings arose at 4 substeps a frame and not at 8: doc/PHYSICS.md). At the finest
+      // the guard tries, the frame is kept and says so. Once refined for a crossing, a frame is checked
+      // whatever its stretch, so that a crossing the finer computation kept is not kept in silence.
+      const int crossed = crossingsMade(report->self_collision, crossing_refinements > 0);
+      const int next_substeps = guard_.substeps(first_substeps, attempt + 1);
+      if (crossed > 0 && crossing_refinements < kMostCrossingRefinements &&
+          attempt + 1 < guard_.attempts(options_.guard_retries) && next_substeps <= OptionLimits::kMaxSubsteps) {
+        ++crossing_refinements;
+        crossing_fallback_substeps = report->substeps_used;
+        problem = std::to_string(crossed) + " triangle pairs passed through each other (self-collision stretch ratio " +
+                  std::to_string(report->self_collision.largest_stretch_ratio) + ")";
+      } else {
+        report->self_collision.crossed = crossed;
+        // A refinement that did not bring the guarantee back (a hand stretching the cloth beside it, which
+        // more substeps do not change) is not worth its cost in the frames after this one.
+        futile_doublings_ = (refined_for_guarantee &&
+                             report->self_collision.stretch_ratio > SelfCollision::kGuaranteedStretchRatio ? 1 : 0) +
+                            (crossed > 0 ? crossing_refinements : 0);
+        cached_energies_ = energies_after;
+        cached_strain_ = report->max_strain;
+        energy_cache_valid_ = true;
+        return true;
+      }
     }
     report->rejection = problem + " with " + std::to_string(report->substeps_used) + " substeps";
     state_ = frame_start_;
+  }
+  if (crossing_fallback_substeps > 0) {
+    // The finer computations a crossing asked for all failed the guard: the frame is the last one it
+    // accepted, computed again (the same bits: nothing carries from one computation to the next), with its
+    // crossing reported, rather than rolled back.
+    const std::string rejection = report->rejection;
+    report->substeps_used = crossing_fallback_substeps;
+    report->steps = StepReport();
+    report->self_collision = SelfCollisionStats();
+    report->contacts = integrateFrame(report->substeps_used, &report->steps, &report->self_collision);
+    report->max_strain = maxStructuralStrain();
+    report->self_collision.crossed = crossingsMade(report->self_collision, true);
+    report->rejection = rejection;
+    futile_doublings_ = 0;
+    energy_cache_valid_ = false;
+    return true;
   }
   report->max_strain = maxStructuralStrain();
   return false;
@@ -370,14 +423,15 @@ void Simulation::rememberFrame(const FrameReport& report, int first_substeps, in
   if (!options_.autoSubsteps()) return;
   // Start the next frames where this one succeeded: at the scale it started from (half the remembered
   // one on a trial frame) times the doublings it needed.
-  const int doublings = report.substeps_used / first_substeps;
-  if (futile_refinement_) {
-    // The refinement's own doubling bought nothing: drop it, keep any the guard needed after it, and lower
-    // nothing (on a trial frame the first computation was not accepted as it stood).
-    memory_.auto_scale = std::max(memory_.auto_scale, std::min(auto_scale * doublings / 2, GuardMemory::kMaxScale));
+  const int factor = report.substeps_used / first_substeps;  // a power of two
+  if (futile_doublings_ > 0) {
+    // The refinements' own doublings bought nothing: drop them, keep any the guard needed besides, and
+    // lower nothing (on a trial frame the first computation was not accepted as it stood).
+    memory_.auto_scale = std::max(memory_.auto_scale,
+                                  std::min(auto_scale * (factor >> futile_doublings_), GuardMemory::kMaxScale));
     return;
   }
-  memory_.auto_scale = std::min(auto_scale * doublings, GuardMemory::kMaxScale);
+  memory_.auto_scale = std::min(auto_scale * factor, GuardMemory::kMaxScale);
 }
 
 FrameReport Simulation::advanceFrame() {
@@ -443,7 +497,8 @@ FrameReport Simulation::advanceFrame() {
     memory_.consecutive_rollbacks = 0;
     // Calm: nothing drove the cloth, nothing changed since the frame before, and it stood still. A frame
     // with a crossing the self-collision could not prevent is never calm (the guard must keep seeing it).
-    countCalmFrame(!driven && drive == memory_.drive_fingerprint && report.self_collision.forced == 0,
+    countCalmFrame(!driven && drive == memory_.drive_fingerprint && report.self_collision.forced == 0 &&
+                       report.self_collision.crossed == 0,
                    motion_m_per_s * options_.frameDuration_s());
     memory_.drive_fingerprint = drive;
   } else if (++memory_.consecutive_rollbacks >= GuardMemory::kRollbacksBeforeRecovery) {
@@ -477,6 +532,13 @@ FrameReport Simulation::advanceFrame() {
     if (reason.tellp() > 0) reason << "; ";
     reason << "a pinned or gripped particle pulled the cloth through itself (" << report.self_collision.forced
            << " particle pairs the self-collision could not keep apart)";
+  }
+  if (report.self_collision.crossed > 0) {
+    if (reason.tellp() > 0) reason << "; ";
+    reason << "the cloth passed through itself: " << report.self_collision.crossed
+           << " triangle pairs crossed with the self-collision stretch ratio at "
+           << report.self_collision.largest_stretch_ratio << " (the no-crossing guarantee holds up to "
+           << SelfCollision::kGuaranteedStretchRatio << "), at the most substeps the guard tries";
   }
   report.reason = reason.str();
   return report;

@@ -872,12 +872,15 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
   // sleep_speed: the last frame was not computed (the figures above are the last computed frame's).
   status.add("asleep", asleep_);
   if (simulation_->options().self_collision.enabled) {
-    // The last frame's self-contacts: pairs pushed apart, particles the fail-safe stopped, and pairs a pin
-    // or gripper dragged through (the frame's warning names those).
+    // The last frame's self-contacts: pairs pushed apart, particles the fail-safe stopped, pairs a pin or
+    // gripper dragged through, and triangle pairs that crossed (the frame's warning names those).
     const core::SelfCollisionStats& self = last_report_.self_collision;
     status.add("self-collision contacts", self.contacts);
     status.add("self-collision stopped particles", self.frozen);
     status.add("self-collision forced pairs", self.forced);
+    // Triangle pairs that passed through each other where the guarantee was out of force and the guard's
+    // finer computations did not prevent it (the frame's warning says so).
+    status.add("self-collision crossed pairs", self.crossed);
     // The longest triangle edge over the longest for which the guarantee holds: above 1 the cloth is
     // stretched too far for "never passes through itself" to be promised (doc/PHYSICS.md).
     status.add("self-collision stretch ratio", self.stretch_ratio);

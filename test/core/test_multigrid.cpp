@@ -292,6 +292,84 @@ TEST(MultigridDeterminism, ARestoredSnapshotContinuesBitExactly) {
   EXPECT_TRUE(sameBits(original.state().velocities_m_per_s, restored.state().velocities_m_per_s));
 }
 
+/// Two implicit Euler steps of h from `start` with multigrid: by `carried`, told they are one frame's
+/// substeps (ImplicitEuler::beginFrame), and by `fresh`, not; `between` changes both states alike after
+/// the first. The largest difference of their positions after the second step, m (states returned).
+struct TwoSteps {
+  ClothState carried, fresh;
+  StepReport first, second, fresh_second;
+};
+template <typename Between>
+TwoSteps twoSteps(Simulation& sim, double h, const Between& between) {
+  SolverOptions solver;
+  solver.preconditioner = PreconditionerKind::kMultigrid;
+  ImplicitEuler carried(solver), fresh(solver);
+  TwoSteps out{sim.state(), sim.state(), {}, {}, {}};
+  ClothForceModel& model = sim.forceModel();
+  carried.beginFrame(2);
+  out.first = carried.step(model, h, out.carried);
+  fresh.step(model, h, out.fresh);
+  EXPECT_TRUE(sameBits(out.carried.positions_m, out.fresh.positions_m)) << "the first step sets up as ever";
+  between(out.carried);
+  between(out.fresh);
+  out.second = carried.step(model, h, out.carried);
+  out.fresh_second = fresh.step(model, h, out.fresh);
+  return out;
+}
+
+TEST(MultigridCarry, AFramesLaterSubstepIsSolvedWithItsFirstPreconditionerToTheSameTolerance) {
+  Simulation sim(everyTerm(20, 18));
+  grabBottom(sim);
+  for (int frame = 0; frame < 5; ++frame) sim.advanceFrame();  // swinging, stretched, grasped
+  const double h = sim.options().frameDuration_s() / 4.0;
+  const TwoSteps steps = twoSteps(sim, h, [](ClothState&) {});
+  // Carried: another preconditioner, so other bits, but the same cloth to the solver's tolerance. Each
+  // solve stops within 1e-3 of its right-hand side, h (F + h K v) / M ~ 0.05 m/s here: a velocity off by
+  // up to 5e-5 m/s moves a particle up to 5e-5 h = 2.5e-7 m; the bound is 4x that.
+  EXPECT_FALSE(sameBits(steps.carried.positions_m, steps.fresh.positions_m)) << "the preconditioner was set up again";
+  EXPECT_LT((steps.carried.positions_m - steps.fresh.positions_m).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_TRUE(steps.second.converged);
+  EXPECT_LE(steps.second.solver_iterations, ImplicitEuler::kLaggedIterationFactor * steps.first.solver_iterations);
+}
+
+TEST(MultigridCarry, ASystemThatChangedTooMuchWithinTheFrameGetsItsOwnPreconditioner) {
+  Simulation sim(everyTerm(20, 18));
+  grabBottom(sim);
+  for (int frame = 0; frame < 5; ++frame) sim.advanceFrame();
+  const double h = sim.options().frameDuration_s() / 4.0;
+  // Crumpled to half its size about its middle between the substeps: every spring compressed, so the
+  // diagonal blocks changed by far more than kMaxCarriedDrift.
+  const TwoSteps steps = twoSteps(sim, h, [](ClothState& state) {
+    const Eigen::Vector3d middle = state.positions_m.rowwise().mean();
+    state.positions_m = ((state.positions_m.colwise() - middle) * 0.5).colwise() + middle;
+  });
+  EXPECT_TRUE(sameBits(steps.carried.positions_m, steps.fresh.positions_m));
+  EXPECT_TRUE(sameBits(steps.carried.velocities_m_per_s, steps.fresh.velocities_m_per_s));
+  // Set up before solving, not after a carried solve gave up (which ends in the same bits, at more cost).
+  EXPECT_EQ(steps.second.solver_iterations, steps.fresh_second.solver_iterations);
+}
+
+TEST(MultigridCarry, ARestoredSnapshotOfAFrameOfFourSubstepsContinuesBitExactly) {
+  // Four substeps a frame of a cloth sagging under its weight (the carry runs at every substep but the
+  // first: at rest a solve would need no iteration, and any preconditioner would do): nothing
+  // of it may outlive a frame (the restored simulation starts with none).
+  SceneOptions options = everyTerm(30, 27);
+  options.substeps = 4;
+  Simulation original(options);
+  for (int frame = 0; frame < 5; ++frame) original.advanceFrame();
+  const SimulationSnapshot saved = original.snapshot();
+  Simulation restored(options);
+  std::string error;
+  ASSERT_TRUE(restored.restore(saved, &error)) << error;
+  for (int frame = 0; frame < 5; ++frame) {
+    const FrameReport a = original.advanceFrame();
+    const FrameReport b = restored.advanceFrame();
+    EXPECT_EQ(a.steps.solver_iterations, b.steps.solver_iterations) << "frame " << frame;
+  }
+  EXPECT_TRUE(sameBits(original.state().positions_m, restored.state().positions_m));
+  EXPECT_TRUE(sameBits(original.state().velocities_m_per_s, restored.state().velocities_m_per_s));
+}
+
 TEST(MultigridScenes, EveryBuiltinSceneConvergesOnEveryStepForOneSecondAt64x64) {
   // 64x64, not 128x128: one simulated second of all seven scenes at 128x128 takes about a minute in
   // Release on the 2-core machines this is run on; doc/BENCHMARKS.md measures them at 128x128.

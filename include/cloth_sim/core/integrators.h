@@ -120,6 +120,10 @@ class Integrator {
   /// Order of the global error (1, 1, 2, 4, 1).
   virtual int order() const = 0;
   virtual StepReport step(Dynamics& dynamics, double step_s, ClothState& state) = 0;
+  /// Says that the next `steps` calls of step() are the substeps of one frame, of equal length: a method may
+  /// carry work from one of them to the next (implicit Euler's preconditioner), never past them, so a frame
+  /// computed again, or after a restored snapshot, re-runs bit for bit. Without it nothing is carried.
+  virtual void beginFrame(int /*steps*/) {}
   /// Takes off forces_N (N, world frame, per particle) what the last step's solve left unsolved, as a
   /// force: forces read where a step ended then say what the cloth exerts, not what the solver's
   /// tolerance left over. Nothing for a method that solves nothing (the explicit ones).
@@ -186,6 +190,23 @@ class ImplicitEuler final : public Integrator {
   IntegratorKind kind() const override { return IntegratorKind::kImplicitEuler; }
   int order() const override { return 1; }
   StepReport step(Dynamics& dynamics, double step_s, ClothState& state) override;
+  /// The preconditioner's last setup within a frame (at its first substep, or at one that would not carry
+  /// it) serves the frame's later substeps, while their step and constrained particles are the same and
+  /// their system is close (kMaxCarriedDrift): the system changes little over one frame, and conjugate
+  /// gradients converge to the same tolerance with a preconditioner of a nearby system (measured in
+  /// doc/BENCHMARKS.md, "One preconditioner a frame"). Only the stopping norm is set up at every step.
+  void beginFrame(int steps) override;
+  /// A carried preconditioner's solve that takes more than this many times the iterations of the one it was
+  /// set up for, that finds it no longer positive definite (r^T z <= 0), or that stops above the tolerance,
+  /// is started again from zero with one set up for its own system, within the same max_iterations.
+  static constexpr int kLaggedIterationFactor = 2;
+  /// A preconditioner is carried to a later substep only while no particle's inverted diagonal block has
+  /// changed by more than this fraction of its largest entry since it was set up. Measured on the 64 x 64
+  /// and 128 x 128 scenes: below 0.3 a carried solve took the iterations of a fresh one (the tablecloth's
+  /// also up to 0.5); from 0.33 to 0.5 the curtain's and the flag's took twice as many, costing more than a
+  /// setup; above 1 (a crumpling pile, a fold landing, springs buckling from one substep to the next) most
+  /// did not converge within kLaggedIterationFactor times.
+  static constexpr double kMaxCarriedDrift = 0.3;
   /// The residual r of the last step's system, over step_s: r = h F(end) - M dv for the force linearised
   /// as the system has it (compressed springs without their transverse part, no wind), so F(end) - r / h
   /// is the force the step's velocity change says acted, M dv / h, whatever the tolerance stopped the
@@ -202,6 +223,12 @@ class ImplicitEuler final : public Integrator {
   Eigen::Matrix3Xd forces_, rhs_, dv_, residual_, direction_, product_, preconditioned_, prescribed_, measured_;
   Eigen::VectorXd free_;              ///< 1 for a free particle, 0 for a constrained one
   std::vector<double> partial_sums_;  ///< per chunk, for the deterministic dot products
+  int frame_steps_left_ = 0;          ///< steps of the frame beginFrame announced still to come
+  bool preconditioner_ready_ = false;  ///< preconditioner_ holds a setup that this frame's steps may use
+  double prepared_step_s_ = 0.0;       ///< its step
+  int prepared_iterations_ = 0;        ///< iterations of the solve it was set up for
+  Eigen::VectorXd prepared_free_;      ///< and its free particles
+  Eigen::Matrix<double, 6, Eigen::Dynamic> prepared_blocks_;  ///< and its system's inverted diagonal blocks
 };
 
 std::unique_ptr<Integrator> makeIntegrator(IntegratorKind kind, const SolverOptions& solver = SolverOptions());

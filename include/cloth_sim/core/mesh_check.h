@@ -1,7 +1,9 @@
 // A checker of a cloth mesh's integrity (issue 15): which pairs of triangles pass through each other.
 // It is what "the cloth never passes through itself" is tested against, so it is written to be simple
-// and exact rather than fast: a uniform grid over the triangles' bounding boxes finds candidate pairs, and
-// each is tested edge against triangle.
+// and exact, and on its own (not on self-collision's broad phase): a uniform grid over the triangles'
+// bounding boxes finds candidate pairs, each tested edge against triangle once. The simulation's guard
+// also asks it, in frames that take self-collision's guarantee out of force (Simulation::computeFrame):
+// about 1.5 ms on a folded 64 x 64 towel.
 #pragma once
 
 #include <Eigen/Core>

@@ -1,7 +1,8 @@
 // The seam between implicit Euler's conjugate gradients and what preconditions them: set up once per step
 // for that step's system (M - h dF/dv - h^2 dF/dx), then applied once per iteration. Implementations keep
-// nothing from one step to the next (setup rebuilds everything), so a restored snapshot re-runs bit for
-// bit, and give the same bits for any thread count.
+// nothing from one setup to the next (setup rebuilds everything), and give the same bits for any thread
+// count. Implicit Euler may leave a frame's later substeps with the setup of its first
+// (ImplicitEuler::beginFrame), never a later frame, so a restored snapshot re-runs bit for bit.
 #pragma once
 
 #include "cloth_sim/core/integrators.h"
@@ -32,6 +33,8 @@ class BlockJacobiPreconditioner final : public Preconditioner {
   void apply(const Eigen::Matrix3Xd& r, Eigen::Matrix3Xd& z) override;
   /// z = P^-1 r for particles [begin, end) only (for loops that fuse it with other work).
   void applyRange(const Eigen::Matrix3Xd& r, Eigen::Matrix3Xd& z, Eigen::Index begin, Eigen::Index end) const;
+  /// The inverted diagonal blocks of the last setup, one column per particle: xx yy zz xy xz yz.
+  const Eigen::Matrix<double, 6, Eigen::Dynamic>& inverseBlocks() const { return blocks_; }
 
  private:
   Eigen::Matrix<double, 6, Eigen::Dynamic> blocks_;  ///< inverted diagonal blocks, xx yy zz xy xz yz

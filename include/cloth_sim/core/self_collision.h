@@ -62,6 +62,12 @@ struct SelfCollisionStats {
   /// Longest triangle edge / the longest for which the guarantee holds (above 1: not guaranteed), after
   /// the last substep.
   double stretch_ratio = 0.0;
+  /// The largest stretch_ratio after any of the substeps.
+  double largest_stretch_ratio = 0.0;
+  /// Triangle pairs that passed through each other in a frame that took the guarantee out of force
+  /// (largest_stretch_ratio above 1), as crossingTrianglePairs counts them after the frame and not before,
+  /// where the guard's finest computation of the frame did not prevent it (Simulation::computeFrame).
+  int crossed = 0;
   SelfCollisionStats& operator+=(const SelfCollisionStats& other);
 };
 

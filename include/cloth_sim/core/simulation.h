@@ -248,6 +248,10 @@ class Simulation {
   /// this: the fold's jam needs two steps a frame and the twisted strip's near pairs four (at two, 7 of
   /// them crossed), while refining without a bound kept the 128x128 fold at rest at 16.
   static constexpr int kGuaranteeRefinementScale = 4;
+  /// A frame in which triangles passed through each other is computed again with twice the substeps at
+  /// most this many times: the twisted strip's crossings took one or two doublings to prevent, while at
+  /// 32 rows one crossing pair stayed through eight (512 substeps a frame, 0.5 s each).
+  static constexpr int kMostCrossingRefinements = 2;
   int firstSubsteps(double stable_step_s, int auto_scale, std::string* warning) const;
   /// The substeps the next frame starts from (firstSubsteps at the remembered scale; a trial, a wake or
   /// the guard may still change them), with the stiffness bound brought up to date: what
@@ -263,6 +267,11 @@ class Simulation {
   /// Whether a computed frame took self-collision's no-crossing guarantee out of force (stretch ratio
   /// above SelfCollision::kGuaranteedStretchRatio, from at most it) while layers touched.
   static bool leavesGuarantee(const FrameReport& report, const FrameEnvelope& envelope);
+  /// Triangle pairs passing through each other after the frame (state_) that did not at its start
+  /// (frame_start_), counted where the frame took self-collision's guarantee out of force (stats' largest
+  /// stretch ratio above 1), where every crossing measured arose (doc/PHYSICS.md), or `always`: elsewhere
+  /// the guarantee covers all pairs but those near on the rest grid.
+  int crossingsMade(const SelfCollisionStats& stats, bool always) const;
   /// The energy and strain budgets of the frame about to be computed, from the state and the inputs.
   FrameEnvelope frameEnvelope() const;
   /// Computes the frame from state_ (= frame_start_) with the guard's attempts; false (state restored)
@@ -311,9 +320,10 @@ class Simulation {
   StiffnessBound bound_;     ///< of options_, masses and grasps; recomputed when bound_stale_
   bool bound_stale_ = true;
   int last_substeps_ = 1;  ///< see lastFrameSubsteps()
-  /// The frame just computed was refined because it left self-collision's guarantee, and the refined
-  /// result still leaves it: `auto` does not keep the refinement's scale (scratch of advanceFrame).
-  bool futile_refinement_ = false;
+  /// Doublings of the frame just computed that bought nothing, which `auto` does not keep (scratch of
+  /// advanceFrame): one where it was refined because it left self-collision's guarantee and the refined
+  /// result still leaves it, and those taken for triangles passing through each other that still did.
+  int futile_doublings_ = 0;
   /// Energies and strain at the end of the last accepted frame (= the next frame's start) while
   /// energy_cache_valid_; every change from outside (reset, restore, retune, grab, release, wind) clears it.
   EnergyReport cached_energies_;
