@@ -144,7 +144,8 @@ double residualDot(const Eigen::Matrix3Xd& a, const Eigen::Matrix3Xd& b, Eigen::
 
 /// The largest change, over the particles, of an inverted diagonal block (xx yy zz xy xz yz) from `before`
 /// to `now`, relative to the block's largest entry before.
-double blockDrift(const Eigen::Matrix<double, 6, Eigen::Dynamic>& before, const Eigen::Matrix<double, 6, Eigen::Dynamic>& now) {
+double blockDrift(const Eigen::Matrix<double, 6, Eigen::Dynamic>& before,
+                  const Eigen::Matrix<double, 6, Eigen::Dynamic>& now) {
   if (before.cols() != now.cols()) return std::numeric_limits<double>::infinity();
   double drift = 0.0;
   for (Eigen::Index i = 0; i < now.cols(); ++i) {

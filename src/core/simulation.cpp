@@ -2,7 +2,6 @@
 
 #include "cloth_sim/core/mesh_check.h"
 
-
 #include <algorithm>
 #include <cmath>
 #include <iterator>

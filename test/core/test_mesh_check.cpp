@@ -102,7 +102,9 @@ TEST(MeshCheck, ACrumpledSheetHasExactlyThePairsThatTestingEveryPairFinds) {
   std::normal_distribution<double> jitter(0.0, 0.04);  // m, on a 1/13 m spacing
   for (int trial = 0; trial < 3; ++trial) {
     Eigen::Matrix3Xd x = grid.rest_positions_m;
-    for (Eigen::Index i = 0; i < x.cols(); ++i) x.col(i) += Eigen::Vector3d(jitter(random), jitter(random), jitter(random));
+    for (Eigen::Index i = 0; i < x.cols(); ++i) {
+      x.col(i) += Eigen::Vector3d(jitter(random), jitter(random), jitter(random));
+    }
     std::vector<std::pair<int, int>> every;
     for (int a = 0; a < count; ++a) {
       for (int b = a + 1; b < count; ++b) {
@@ -115,8 +117,10 @@ TEST(MeshCheck, ACrumpledSheetHasExactlyThePairsThatTestingEveryPairFinds) {
         if (shared) continue;
         bool cross = false;
         for (int e = 0; e < 3 && !cross; ++e) {
-          cross = segmentCrossesTriangle(x.col(ta[e]), x.col(ta[(e + 1) % 3]), x.col(tb[0]), x.col(tb[1]), x.col(tb[2])) ||
-                  segmentCrossesTriangle(x.col(tb[e]), x.col(tb[(e + 1) % 3]), x.col(ta[0]), x.col(ta[1]), x.col(ta[2]));
+          cross = segmentCrossesTriangle(x.col(ta[e]), x.col(ta[(e + 1) % 3]), x.col(tb[0]), x.col(tb[1]),
+                                         x.col(tb[2])) ||
+                  segmentCrossesTriangle(x.col(tb[e]), x.col(tb[(e + 1) % 3]), x.col(ta[0]), x.col(ta[1]),
+                                         x.col(ta[2]));
         }
         if (cross) every.emplace_back(a, b);
       }

@@ -554,7 +554,8 @@ TEST(SelfCollisionTwist, AFrameInWhichTrianglesPassedThroughEachOtherSaysSo) {
     const auto was = crossingTrianglePairs(grid.triangles, before);
     std::vector<std::pair<int, int>> new_pairs;
     std::set_difference(after.begin(), after.end(), was.begin(), was.end(), std::back_inserter(new_pairs));
-    EXPECT_EQ(report.self_collision.crossed, static_cast<int>(new_pairs.size())) << "at " << simulation.state().time_s << " s";
+    EXPECT_EQ(report.self_collision.crossed, static_cast<int>(new_pairs.size()))
+        << "at " << simulation.state().time_s << " s";
     const bool says_so = report.reason.find("the cloth passed through itself") != std::string::npos;
     EXPECT_EQ(says_so, !new_pairs.empty()) << "at " << simulation.state().time_s << " s: " << report.reason;
     made += new_pairs.empty() ? 0 : 1;
