@@ -200,17 +200,20 @@ StepReport ImplicitEuler::step(Dynamics& dynamics, double step_s, ClothState& st
   Preconditioner& preconditioner = preconditioner_ ? *preconditioner_ : *norm_;
   const bool in_frame = frame_steps_left_ > 0;
   frame_steps_left_ = std::max(frame_steps_left_ - 1, 0);
-  bool lagged = preconditioner_ && in_frame && preconditioner_ready_ && h == prepared_step_s_ &&
+  // Worth keeping only for a later step of this frame (not after a frame's last, or only, step).
+  const bool steps_to_come = frame_steps_left_ > 0;
+  bool carried = preconditioner_ && in_frame && preconditioner_ready_ && h == prepared_step_s_ &&
                 prepared_free_.size() == free_.size() && free_ == prepared_free_ &&
                 blockDrift(prepared_blocks_, norm_->inverseBlocks()) <= kMaxCarriedDrift;
   const auto setUp = [&]() {
     preconditioner_->setup(dynamics, h, free_);
-    preconditioner_ready_ = in_frame;
+    preconditioner_ready_ = steps_to_come;
+    if (!steps_to_come) return;
     prepared_step_s_ = h;
     prepared_free_ = free_;
     prepared_blocks_ = norm_->inverseBlocks();
   };
-  if (preconditioner_ && !lagged) setUp();
+  if (preconditioner_ && !carried) setUp();
   const bool measured_by_preconditioner = !preconditioner_;
   const int threads = dynamics.threads();
   const auto dot = [&](const Eigen::Matrix3Xd& a, const Eigen::Matrix3Xd& b) {
@@ -231,10 +234,10 @@ StepReport ImplicitEuler::step(Dynamics& dynamics, double step_s, ClothState& st
   const double rhs_norm = normSquared(product_);
   preconditioned_.resize(3, count);
   // A preconditioner carried over from an earlier substep may fit this system badly (the layers of a fold
-  // landing change it within a frame): past kLaggedIterationFactor times the iterations of the step that
+  // landing change it within a frame): past kCarriedIterationFactor times the iterations of the step that
   // set it up, or where it stops being positive definite for this system, the solve starts again from
   // zero with one set up for this system, within what is left of max_iterations (a cap on the step).
-  const int lag_limit = kLaggedIterationFactor * std::max(prepared_iterations_, 1);
+  const int carried_limit = kCarriedIterationFactor * std::max(prepared_iterations_, 1);
   int iteration = 0;
   double measured = 0.0;
   double reference = 0.0;
@@ -255,7 +258,7 @@ StepReport ImplicitEuler::step(Dynamics& dynamics, double step_s, ClothState& st
     const int first_iteration = iteration;
     bool gave_up = false;  // on a carried preconditioner
     while (iteration < options_.max_iterations && measured > target) {
-      if (lagged && iteration - first_iteration >= lag_limit) {
+      if (carried && iteration - first_iteration >= carried_limit) {
         gave_up = true;
         break;
       }
@@ -279,7 +282,7 @@ StepReport ImplicitEuler::step(Dynamics& dynamics, double step_s, ClothState& st
       const double delta_next = dot(residual_, preconditioned_);
       measured = measured_by_preconditioner ? delta_next : normSquared(residual_);
       // r^T z <= 0 for r != 0: the carried V-cycle is no longer positive definite for this system.
-      if (lagged && !(delta_next > 0.0) && measured > target) {
+      if (carried && !(delta_next > 0.0) && measured > target) {
         gave_up = true;
         break;
       }
@@ -290,11 +293,11 @@ StepReport ImplicitEuler::step(Dynamics& dynamics, double step_s, ClothState& st
       });
       delta = delta_next;
     }
-    if (lagged && (gave_up || !(measured <= target)) && iteration < options_.max_iterations) {
+    if (carried && (gave_up || !(measured <= target)) && iteration < options_.max_iterations) {
       setUp();
-      lagged = false;
+      carried = false;
     } else {
-      if (!lagged) prepared_iterations_ = iteration - first_iteration;
+      if (!carried) prepared_iterations_ = iteration - first_iteration;
       done = true;
     }
   }

@@ -40,7 +40,7 @@ SelfCollisionStats& SelfCollisionStats::operator+=(const SelfCollisionStats& oth
   frozen += other.frozen;
   forced += other.forced;
   stretch_ratio = other.stretch_ratio;  // the latest substep's
-  largest_stretch_ratio = std::max({largest_stretch_ratio, other.largest_stretch_ratio, other.stretch_ratio});
+  largest_stretch_ratio = std::max(largest_stretch_ratio, other.largest_stretch_ratio);
   crossed += other.crossed;
   return *this;
 }
@@ -298,6 +298,7 @@ SelfCollisionStats SelfCollision::resolve(const ClothGrid& grid, const SelfColli
     ++stats.frozen;
   }
   stats.stretch_ratio = selfCollisionStretchRatio(grid, thickness_m, positions_m);
+  stats.largest_stretch_ratio = stats.stretch_ratio;  // one substep's
   return stats;
 }
 

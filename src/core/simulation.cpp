@@ -384,9 +384,9 @@ bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps,
         report->self_collision.crossed = crossed;
         // A refinement that did not bring the guarantee back (a hand stretching the cloth beside it, which
         // more substeps do not change) is not worth its cost in the frames after this one.
-        futile_doublings_ = (refined_for_guarantee &&
-                             report->self_collision.stretch_ratio > SelfCollision::kGuaranteedStretchRatio ? 1 : 0) +
-                            (crossed > 0 ? crossing_refinements : 0);
+        const bool guarantee_not_back =
+            refined_for_guarantee && report->self_collision.stretch_ratio > SelfCollision::kGuaranteedStretchRatio;
+        futile_doublings_ = (guarantee_not_back ? 1 : 0) + (crossed > 0 ? crossing_refinements : 0);
         cached_energies_ = energies_after;
         cached_strain_ = report->max_strain;
         energy_cache_valid_ = true;

@@ -199,13 +199,13 @@ class ImplicitEuler final : public Integrator {
   /// A carried preconditioner's solve that takes more than this many times the iterations of the one it was
   /// set up for, that finds it no longer positive definite (r^T z <= 0), or that stops above the tolerance,
   /// is started again from zero with one set up for its own system, within the same max_iterations.
-  static constexpr int kLaggedIterationFactor = 2;
+  static constexpr int kCarriedIterationFactor = 2;
   /// A preconditioner is carried to a later substep only while no particle's inverted diagonal block has
   /// changed by more than this fraction of its largest entry since it was set up. Measured on the 64 x 64
   /// and 128 x 128 scenes: below 0.3 a carried solve took the iterations of a fresh one (the tablecloth's
   /// also up to 0.5); from 0.33 to 0.5 the curtain's and the flag's took twice as many, costing more than a
   /// setup; above 1 (a crumpling pile, a fold landing, springs buckling from one substep to the next) most
-  /// did not converge within kLaggedIterationFactor times.
+  /// did not converge within kCarriedIterationFactor times.
   static constexpr double kMaxCarriedDrift = 0.3;
   /// The residual r of the last step's system, over step_s: r = h F(end) - M dv for the force linearised
   /// as the system has it (compressed springs without their transverse part, no wind), so F(end) - r / h
