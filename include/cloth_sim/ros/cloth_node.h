@@ -36,8 +36,8 @@
 #include <chrono>
 #include <condition_variable>
 #include <memory>
-#include <optional>
 #include <mutex>
+#include <optional>
 #include <string>
 
 namespace cloth_sim {
