@@ -452,7 +452,7 @@ void ClothNode::applyPendingGrasps() {
   for (const cloth_sim::Grasp::ConstPtr& command : grasp_commands_.take()) applyGrasp(command);
   const std::size_t dropped = grasp_commands_.takeDropped();
   if (dropped > 0) {
-    ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped %zu ~grasp GRABs: more than %zu ids pending at once",
+    ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped %zu ~grasp commands: more than %zu ids pending at once",
                       dropped, GraspCommandQueue::kMaxPendingIds);
   }
 }

@@ -12,11 +12,17 @@ bool GraspCommandQueue::push(const cloth_sim::Grasp::ConstPtr& command) {
   if (same_id != pending_.end()) {
     pending_.erase(same_id);
   } else if (pending_.size() >= kMaxPendingIds) {
+    ++dropped_;
     const auto oldest_grab = std::find_if(pending_.begin(), pending_.end(), [](const cloth_sim::Grasp::ConstPtr& held) {
       return held->action != cloth_sim::Grasp::RELEASE;
     });
-    pending_.erase(oldest_grab != pending_.end() ? oldest_grab : pending_.begin());
-    ++dropped_;
+    if (oldest_grab != pending_.end()) {
+      pending_.erase(oldest_grab);
+    } else if (command->action != cloth_sim::Grasp::RELEASE) {
+      return was_empty;  // every pending command lets a hand go: the new GRAB gives way, not one of them
+    } else {
+      pending_.erase(pending_.begin());
+    }
   }
   pending_.push_back(command);
   return was_empty;

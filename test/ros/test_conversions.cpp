@@ -191,6 +191,27 @@ TEST(GraspCommandQueue, PastItsIdLimitGrabsMakeRoomAndReleasesStay) {
   EXPECT_EQ(pending[1]->id, 2u);
 }
 
+TEST(GraspCommandQueue, FullOfReleasesANewGrabGivesWayAndOnlyANewReleaseDisplacesOne) {
+  cloth_sim::GraspCommandQueue queue;
+  const std::size_t full = cloth_sim::GraspCommandQueue::kMaxPendingIds;
+  for (std::uint32_t id = 0; id < full; ++id) queue.push(graspCommand(id, cloth_sim::Grasp::RELEASE));
+  queue.push(graspCommand(5000, cloth_sim::Grasp::GRAB));
+  EXPECT_EQ(queue.takeDropped(), 1u);
+  std::vector<cloth_sim::Grasp::ConstPtr> pending = queue.take();
+  ASSERT_EQ(pending.size(), full);
+  for (std::uint32_t id = 0; id < full; ++id) {
+    EXPECT_EQ(pending[id]->id, id) << "every RELEASE stayed; the new GRAB was dropped";
+    EXPECT_EQ(pending[id]->action, cloth_sim::Grasp::RELEASE);
+  }
+  for (std::uint32_t id = 0; id < full; ++id) queue.push(graspCommand(id, cloth_sim::Grasp::RELEASE));
+  queue.push(graspCommand(5000, cloth_sim::Grasp::RELEASE));
+  EXPECT_EQ(queue.takeDropped(), 1u);
+  pending = queue.take();
+  ASSERT_EQ(pending.size(), full);
+  EXPECT_EQ(pending.front()->id, 1u) << "a RELEASE can only be displaced by another: the oldest gave way";
+  EXPECT_EQ(pending.back()->id, 5000u);
+}
+
 }  // namespace
 
 TEST(ParticleCloud, ParticlesOutsideTheOutlineAreInvalidPoints) {

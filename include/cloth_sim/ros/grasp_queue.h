@@ -18,7 +18,8 @@ class GraspCommandQueue {
  public:
   /// Distinct ids pending at most. The simulation holds at most 16 grasps, so this many ids between two
   /// drains means a peer is flooding ids; past it the oldest pending GRAB is dropped (counted in
-  /// dropped()), and only when every pending command is a RELEASE the oldest RELEASE.
+  /// dropped()). When every pending command is a RELEASE, a new GRAB is dropped instead, and only a new
+  /// RELEASE makes the oldest RELEASE give way.
   static constexpr std::size_t kMaxPendingIds = 1024;
 
   /// Any thread. Replaces the pending command of the same id, if any (the new one goes last). True when
