@@ -329,6 +329,14 @@ int Simulation::crossingsMade(const SelfCollisionStats& stats, bool always) cons
   return static_cast<int>(made.size());
 }
 
+void Simulation::computeAt(int substeps, FrameReport* report) {
+  report->substeps_used = substeps;
+  report->steps = StepReport();
+  report->self_collision = SelfCollisionStats();
+  report->contacts = integrateFrame(substeps, &report->steps, &report->self_collision);
+  report->max_strain = maxStructuralStrain();
+}
+
 bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps, FrameReport* report) {
   std::string problem;
   bool refined_for_guarantee = false;
@@ -338,11 +346,7 @@ bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps,
   for (int attempt = 0; attempt < guard_.attempts(options_.guard_retries); ++attempt) {
     const int substeps = std::min(guard_.substeps(first_substeps, attempt), OptionLimits::kMaxSubsteps);
     if (attempt > 0 && substeps == report->substeps_used) break;  // at the cap: the same again would fail again
-    report->substeps_used = substeps;
-    report->steps = StepReport();
-    report->self_collision = SelfCollisionStats();
-    report->contacts = integrateFrame(report->substeps_used, &report->steps, &report->self_collision);
-    report->max_strain = maxStructuralStrain();
+    computeAt(substeps, report);
     const EnergyReport energies_after = energies();
     problem = guard_.check(state_, totalEnergy_J(energies_after), report->max_strain, envelope);
     // `auto` also refines a frame that first stretches the cloth past the warning (a hem caught on a
@@ -401,11 +405,7 @@ bool Simulation::computeFrame(const FrameEnvelope& envelope, int first_substeps,
     // accepted, computed again (the same bits: nothing carries from one computation to the next), with its
     // crossing reported, rather than rolled back.
     const std::string rejection = report->rejection;
-    report->substeps_used = crossing_fallback_substeps;
-    report->steps = StepReport();
-    report->self_collision = SelfCollisionStats();
-    report->contacts = integrateFrame(report->substeps_used, &report->steps, &report->self_collision);
-    report->max_strain = maxStructuralStrain();
+    computeAt(crossing_fallback_substeps, report);
     report->self_collision.crossed = crossingsMade(report->self_collision, true);
     report->rejection = rejection;
     futile_doublings_ = 0;

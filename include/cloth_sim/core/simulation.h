@@ -303,6 +303,9 @@ class Simulation {
   /// Runs one frame in the given number of substeps from the current state; adds the integrator's work
   /// to *steps.
   ContactStats integrateFrame(int substeps, StepReport* steps, SelfCollisionStats* self_collision);
+  /// One computation of the frame from state_ at `substeps`: its substeps, steps, self-collision, contacts
+  /// and strain go into *report (the rest of it is the caller's).
+  void computeAt(int substeps, FrameReport* report);
 
   /// Before a frame: a gripper or frame collider that was not moved for it holds still (its track starts
   /// at this frame).
