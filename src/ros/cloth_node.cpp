@@ -566,6 +566,8 @@ void ClothNode::queueStepChunk(const std::shared_ptr<StepJob>& job) {
 
 std::string ClothNode::refuseStep(const StepJob& job) const {
   if (!paused_) return "not paused: call ~pause with data=true first";
+  // The step service's one thread takes its calls one after another, each waiting for its answer, so a
+  // job is still under way here only if its call stopped waiting (the node shutting down).
   if (active_step_) return "another ~step is in progress";
   if (job.frames == 0 || job.frames > kMaxStepFrames) {
     return "frames = " + std::to_string(job.frames) + ": must be in [1, " + std::to_string(kMaxStepFrames) + "]";
