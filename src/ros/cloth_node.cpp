@@ -39,8 +39,8 @@ constexpr double kFrameDueTolerance = 1e-6;
 constexpr double kWarnThrottle_s = 5.0;
 /// The scene when ~scene is not given: a cloth that sags and folds between two hooks.
 constexpr const char* kDefaultScene = "drape";
-/// A mesh counts as due this fraction of a frame before its period is up (timer ticks jitter).
-constexpr double kMeshPeriodTolerance = 0.5;
+/// A mesh counts as due this fraction of a frame before its due time (timer ticks jitter).
+constexpr double kMeshEarlyFrames = 0.5;
 constexpr double kMillisecondsPerSecond = 1000.0;
 /// How often a service thread waiting for its ~step looks whether the node is shutting down.
 constexpr std::chrono::milliseconds kStepWaitPoll{100};
@@ -124,7 +124,7 @@ bool ClothNode::start(std::string* error) {
              std::to_string(core::OptionLimits::kMaxFrameRateHz) + "] Hz";
     return false;
   }
-  mesh_period_s_ = 1.0 / mesh_rate_hz;
+  mesh_schedule_ = std::make_unique<MeshSchedule>(mesh_rate_hz);
 
   mesh_pub_ = pnh_.advertise<visualization_msgs::Marker>(Names::kMeshTopic, 2);
   state_pub_ = pnh_.advertise<cloth_sim::ClothState>(Names::kStateTopic, kStateQueue);
@@ -392,14 +392,11 @@ void ClothNode::publish(const ros::Time& stamp, bool with_state) {
     ROS_ERROR_THROTTLE(kWarnThrottle_s, "cloth_node: state is not finite; not publishing");
     return;
   }
-  // A mesh is due once a mesh period has passed since the last one (a frame's worth of timer jitter
-  // early counts as on time); time running backwards (a looping /clock) makes one due at once.
-  const double since_mesh_s = (stamp - last_mesh_).toSec();
-  const bool mesh_due = last_mesh_.isZero() || since_mesh_s < 0.0 ||
-                        since_mesh_s >= mesh_period_s_ - kMeshPeriodTolerance * simulation_->options().frameDuration_s();
-  if (mesh_due && mesh_pub_.getNumSubscribers() > 0) {
+  // Half a frame early counts as on time (timer jitter); time running backwards (a looping /clock) makes
+  // a mesh due at once (MeshSchedule).
+  if (mesh_pub_.getNumSubscribers() > 0 &&
+      mesh_schedule_->due(stamp.toSec(), kMeshEarlyFrames * simulation_->options().frameDuration_s())) {
     mesh_pub_.publish(toMeshMarker(*simulation_, frame_id_, stamp));
-    last_mesh_ = stamp;
   }
   if (with_state) publishState(stamp);
   if (colliders_pub_.getNumSubscribers() > 0 && !simulation_->options().colliders.empty()) {
@@ -569,6 +566,8 @@ void ClothNode::queueStepChunk(const std::shared_ptr<StepJob>& job) {
 
 std::string ClothNode::refuseStep(const StepJob& job) const {
   if (!paused_) return "not paused: call ~pause with data=true first";
+  // The step service's one thread takes its calls one after another, each waiting for its answer, so a
+  // job is still under way here only if its call stopped waiting (the node shutting down).
   if (active_step_) return "another ~step is in progress";
   if (job.frames == 0 || job.frames > kMaxStepFrames) {
     return "frames = " + std::to_string(job.frames) + ": must be in [1, " + std::to_string(kMaxStepFrames) + "]";

@@ -15,6 +15,7 @@
 #include "cloth_sim/core/options.h"
 #include "cloth_sim/core/simulation.h"
 #include "cloth_sim/ros/conversions.h"
+#include "cloth_sim/ros/mesh_schedule.h"
 
 #include <geometry_msgs/TransformStamped.h>
 #include <ros/ros.h>
@@ -29,6 +30,8 @@ namespace {
 constexpr double kWarnThrottle_s = 5.0;
 /// Meshes per second at most by default: the node's frame rate.
 constexpr double kDefaultMeshRateHz = 50.0;
+/// A state up to this many state periods before its mesh is due counts as on time.
+constexpr double kEarlyStatePeriods = 0.5;
 /// Unit grid the topology is built on: only its triangles and texture coordinates are used.
 constexpr double kUnitSide_m = 1.0;
 
@@ -64,7 +67,7 @@ class ClothViewer {
                std::to_string(cloth_sim::core::OptionLimits::kMaxFrameRateHz) + "] Hz";
       return false;
     }
-    mesh_period_s_ = 1.0 / mesh_rate_hz;
+    mesh_schedule_ = cloth_sim::MeshSchedule(mesh_rate_hz);
     mesh_pub_ = pnh.advertise<visualization_msgs::Marker>(mesh_topic, 2);
     state_sub_ = ros::NodeHandle().subscribe(state_topic, 2, &ClothViewer::onState, this);
     ROS_INFO("cloth_viewer: %s -> %s at most %.0f Hz", state_sub_.getTopic().c_str(), mesh_pub_.getTopic().c_str(),
@@ -76,9 +79,14 @@ class ClothViewer {
   void onState(const cloth_sim::ClothState::ConstPtr& message) {
     const ros::Time stamp = message->header.stamp;
     // In seconds as doubles: ros::Time's own difference throws (and would end the viewer) when a peer's
-    // stamp lies more than 2^31 s from the last one drawn.
-    const double since_s = stamp.toSec() - last_mesh_.toSec();
-    if (!last_mesh_.isZero() && since_s >= 0.0 && since_s < mesh_period_s_) return;  // not due yet
+    // stamp lies more than 2^31 s from the last one.
+    const double stamp_s = stamp.toSec();
+    const double state_period_s = stamp_s - last_state_s_;
+    last_state_s_ = stamp_s;
+    // Half the states' own period early counts as on time, as the node does with its frames (their
+    // stamps jitter by tens of microseconds).
+    const double early_s = state_period_s > 0.0 ? kEarlyStatePeriods * state_period_s : 0.0;
+    if (!mesh_schedule_.due(stamp_s, early_s)) return;
     std::string error;
     if (!cloth_sim::fromStateMessage(*message, cloth_sim::core::OptionLimits::kMaxGridSide, &positions_m_, &error)) {
       ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_viewer: dropped a ClothState: %s", error.c_str());
@@ -91,15 +99,14 @@ class ClothViewer {
       colors_ = cloth_sim::core::checkerColors(grid_.uv);
     }
     mesh_pub_.publish(cloth_sim::toMeshMarker(grid_, positions_m_, colors_, message->header.frame_id, stamp));
-    last_mesh_ = stamp;
   }
 
   tf2_ros::StaticTransformBroadcaster static_broadcaster_;
   bool publish_mesh_ = true;
   ros::Publisher mesh_pub_;
   ros::Subscriber state_sub_;
-  double mesh_period_s_ = 1.0 / kDefaultMeshRateHz;
-  ros::Time last_mesh_;
+  cloth_sim::MeshSchedule mesh_schedule_{kDefaultMeshRateHz};
+  double last_state_s_ = 0.0;  ///< the last state's stamp, s
   cloth_sim::core::ClothGrid grid_;  ///< topology of the last grid size seen
   Eigen::Matrix3Xf colors_;
   Eigen::Matrix3Xd positions_m_;

@@ -4,6 +4,7 @@
 - `~pause false` repeated faster than the frame rate changes nothing: the cloth keeps advancing.
 - A long `~step` runs in chunks: while it runs, other service calls are answered and ~state keeps coming,
   and `~reset` stops it with a reason.
+- A second `~step` waits until the one under way is answered, then runs its own frames.
 Run by test/ros/runtime.test against the node it starts; every wait is a condition with a deadline.
 """
 import re
@@ -29,6 +30,7 @@ MIN_FLOOD_RATE_HZ = 2.0 * FRAME_RATE_HZ
 # Generous: the machine is shared and timing is noisy. The fault gave 1 frame in 5 s.
 MIN_FRAME_SHARE = 0.4
 MAX_STEP_FRAMES = 10000  # ClothNode::kMaxStepFrames
+SECOND_STEP_FRAMES = 5
 
 
 class States:
@@ -135,6 +137,44 @@ class Runtime(unittest.TestCase):
             stepping.join()
         self.assertFalse(answers[0].success)
         self.assertIn("~reset", answers[0].message)
+
+    def test_a_second_step_waits_for_the_one_under_way_and_then_runs(self):
+        """One ~step at a time: a second call is answered after the first, and then runs its own frames."""
+        self.assertTrue(self.pause(True).success)
+        self.assertTrue(self.reset().success)
+        paused_frame = self.states.next_frame()
+        first, first_answers = self.start_step(MAX_STEP_FRAMES)
+        moving = self.states.wait_for(lambda s: s.frame > paused_frame or not first.is_alive())
+        if not first.is_alive() and not first_answers[0].success:
+            fitting = re.search(r"at most (\d+) frames", first_answers[0].message)
+            self.assertIsNotNone(fitting, first_answers[0].message)
+            first, first_answers = self.start_step(int(fitting.group(1)))
+            moving = self.states.wait_for(lambda s: s.frame > paused_frame)
+        second, second_answers = None, []
+        try:
+            self.assertIsNotNone(moving, "no ~state showed the first step advancing")
+            self.assertTrue(first.is_alive(), "the first step ended too soon to test anything")
+            second, second_answers = self.start_step(SECOND_STEP_FRAMES)
+            # Still waiting while the first runs (the frames keep moving meanwhile).
+            self.assertIsNotNone(self.states.wait_for(lambda s: s.frame > moving.frame + 2), "~state stopped")
+            self.assertTrue(first.is_alive(), "the first step ended before the second could be seen waiting")
+            self.assertTrue(second.is_alive(), "the second ~step was answered while the first ran: %s"
+                            % (second_answers[0].message if second_answers else ""))
+            self.assertTrue(self.reset().success)  # stops the first; the second then runs from frame 0
+            first.join(DEADLINE_S)
+            second.join(DEADLINE_S)
+            self.assertFalse(first.is_alive(), "~reset did not stop the first step")
+            self.assertFalse(second.is_alive(), "the second step never ended")
+        finally:
+            first.join()
+            if second is not None:
+                second.join()
+        self.assertFalse(first_answers[0].success)
+        self.assertIn("~reset", first_answers[0].message)
+        self.assertTrue(second_answers[0].success, second_answers[0].message)
+        self.assertEqual(second_answers[0].message, "advanced %d frames" % SECOND_STEP_FRAMES)
+        self.assertAlmostEqual(second_answers[0].sim_time, SECOND_STEP_FRAMES / FRAME_RATE_HZ, places=6)
+
 
 if __name__ == "__main__":
     rospy.init_node("test_runtime")

@@ -17,6 +17,7 @@
 #include "cloth_sim/ros/grippers.h"
 #include "cloth_sim/ros/robot_colliders.h"
 #include "cloth_sim/ros/mouse_drag.h"
+#include "cloth_sim/ros/mesh_schedule.h"
 #include "cloth_sim/ros/grasp_queue.h"
 
 #include <diagnostic_updater/diagnostic_updater.h>
@@ -240,8 +241,7 @@ class ClothNode {
   /// Frames are due at anchor_time_ + k / frame_rate (ROS time: wall clock, or /clock under use_sim_time).
   ros::Time anchor_time_;
   ros::Time last_tick_;  ///< to notice /clock going backwards
-  double mesh_period_s_ = 0.0;  ///< 1 / ~mesh_rate
-  ros::Time last_mesh_;         ///< stamp of the last mesh marker published
+  std::unique_ptr<MeshSchedule> mesh_schedule_;  ///< at ~mesh_rate
   std::uint64_t anchor_frame_ = 0;
   bool anchored_ = false;
 
