@@ -19,6 +19,8 @@ constexpr double kTrianglesPerParticle = 6.0;
 constexpr double kClothSpeedForDragBound_m_per_s = 10.0;
 /// Modes sampled along t in (0, 1] when searching an explicit method's largest stable step.
 constexpr int kModeSamples = 64;
+/// The search for a mode's largest stable step starts from this many times 1 / rate (stableStepLimit_s).
+constexpr double kUpperStepRate = 8.0;
 /// Bisection on the step: relative width at which it stops.
 constexpr double kBisectionRelativeWidth = 1e-6;
 /// Steps below this fraction of 1/omega count as "no stable step" (forward Euler without damping).
@@ -161,7 +163,12 @@ double stableStepLimit_s(IntegratorKind kind, const StiffnessBound& bound) {
     if ((touches_axis_only_at_zero && gamma <= 0.0 && kappa > 0.0) || !modeIsStable(kind, kappa, gamma, smallest_s)) {
       return 0.0;
     }
-    const double upper_s = 4.0 / rate_per_s;  // past every method's limit for the fastest rate
+    // Past every method's limit for the binding mode: its eigenvalues are at least rate / 2 in size (a
+    // critically damped mode's double root is -gamma / 2), and no method's region reaches |h s| = 4 (RK4's
+    // ends by 2.96). At 4 / rate a critically damped fastest mode sat at h s = -2, inside RK4's region, and
+    // was passed over as slow: the limit came out infinite, and rk4 with `auto` took 8 substeps a frame and
+    // diverged at 22 to 28 per side of the hanging scene.
+    const double upper_s = kUpperStepRate / rate_per_s;
     if (modeIsStable(kind, kappa, gamma, upper_s)) continue;  // a slow mode: not the binding one
     limit_s = std::min(limit_s, bisectStep(kind, kappa, gamma, smallest_s, upper_s));
   }

@@ -41,6 +41,35 @@ TEST(StableStep, DampingGivesForwardEulerAStepAndShrinksSymplecticEulers) {
   EXPECT_LT(stableStepLimit_s(IntegratorKind::kSymplecticEuler, bound), 2.0 / 100.0);
 }
 
+TEST(StableStep, ACriticallyDampedFastestModeStillBindsRK4) {
+  // Damping that grows with the mode (spring damping), critical at the fastest one: its double root
+  // -gamma / 2 = -omega lies on the real axis, where RK4's region ends at h s = -2.7853. The search used
+  // to start at 4 / (gamma + omega's larger) = 2 / omega, inside the region, and passed every mode over as
+  // slow: an infinite limit (rk4 with `auto` then took 8 substeps and diverged: the hanging scene at 22 to
+  // 28 per side).
+  constexpr double kOmega = 100.0;  // rad/s
+  constexpr double kRK4RealAxisEdge = 2.785293563405282;  // the real root of 1 + z / 2 + z^2 / 6 + z^3 / 24
+  StiffnessBound bound = undamped(kOmega);
+  bound.damping_max_per_s = 2.0 * kOmega;
+  EXPECT_NEAR(stableStepLimit_s(IntegratorKind::kRK4, bound), kRK4RealAxisEdge / kOmega, 1e-5 / kOmega);
+}
+
+TEST(AutoSubsteps, RK4KeepsEveryHangingFrameAtEverySizeFrom16To32) {
+  for (const int side : {16, 22, 24, 28, 32}) {
+    SceneOptions o = test::loadBuiltinScene("hanging");
+    o.rows = o.cols = side;
+    o.integrator = IntegratorKind::kRK4;
+    o.substeps = SceneOptions::kAutoSubsteps;
+    Simulation sim(o);
+    for (int frame = 0; frame < 10; ++frame) {
+      const FrameReport report = sim.advanceFrame();
+      ASSERT_TRUE(report.stable) << side << " per side, frame " << frame << ": " << report.reason;
+      EXPECT_TRUE(std::isfinite(report.stable_step_s)) << side << " per side";
+    }
+    EXPECT_EQ(sim.options().integrator, IntegratorKind::kRK4) << side << " per side: no recovery switched it";
+  }
+}
+
 /// The exact largest eigenvalue of M^-1 K for a small cloth, from its dense stiffness matrix (forward
 /// differences of the force model's differential).
 double exactOmegaMax(Simulation& sim) {
