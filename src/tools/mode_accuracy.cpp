@@ -238,7 +238,18 @@ int runAccuracy(const ToolOptions& options, const core::SceneOptions& scene) {
   const bool written = writeOutputs(options, "pareto", [&](const std::string& path) {
     return writeAccuracyCsv(path, metadata, results);
   });
-  return written ? kExitOk : kExitRunFailed;
+  if (!written) return kExitRunFailed;
+  // Beside the integrators and substeps, implicit Euler's other knob: its solver's tolerance and cap
+  // (--tolerances, --caps), as --solver-sweep measures them. Printed only: --csv and --png hold the table above.
+  const auto& integrators = options.integrators;
+  if (std::find(integrators.begin(), integrators.end(), core::IntegratorKind::kImplicitEuler) == integrators.end()) {
+    return kExitOk;
+  }
+  ToolOptions sweep = options;
+  sweep.csv_path.clear();
+  sweep.png_path.clear();
+  std::cout << "\n";
+  return runSolverSweep(sweep, scene);
 }
 
 }  // namespace cloth_sim::bench

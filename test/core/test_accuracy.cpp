@@ -256,6 +256,24 @@ TEST(ClothBenchAccuracy, PrintsTheReferenceEvidenceATableAndARecommendationOnATi
   EXPECT_NE(output.find("substeps: "), std::string::npos) << output;
 }
 
+TEST(ClothBenchAccuracy, SweepsImplicitEulersSolverToleranceAndCapBesideTheIntegrators) {
+  // Issue 13: `cloth_bench --accuracy` measures the solver's knob too (as --solver-sweep does), where
+  // implicit Euler is among the integrators; without it, nothing of the sort.
+  const std::string base = std::string(CLOTH_BENCH_EXECUTABLE) +
+                           " --accuracy --scene hanging --set rows=4 --set cols=4 --seconds 0.1 --min-timing 0"
+                           " --substeps-list 4 --tolerances 1e-2,1e-3 --caps 3,none";
+  int status = -1;
+  const std::string with = runCommand(base + " --integrators implicit_euler,rk4 2>/dev/null", &status);
+  EXPECT_EQ(status, 0) << with;
+  EXPECT_NE(with.find("solver sweep: scene hanging 4x4"), std::string::npos) << with;
+  EXPECT_NE(with.find("tolerance        0.01  none"), std::string::npos) << with;
+  EXPECT_NE(with.find("cap             0.001     3"), std::string::npos) << with;
+  EXPECT_NE(with.find("solver_max_iterations"), std::string::npos) << with;
+  const std::string without = runCommand(base + " --integrators rk4 2>/dev/null", &status);
+  EXPECT_EQ(status, 0) << without;
+  EXPECT_EQ(without.find("solver sweep"), std::string::npos) << without;
+}
+
 TEST(ClothBenchSolverSweep, PrintsTheReferenceTheToleranceAndCapRowsAndARecommendationOnATinyScene) {
   const std::string command = std::string(CLOTH_BENCH_EXECUTABLE) +
                               " --solver-sweep --scene hanging --dynamic --set rows=5 --set cols=5 --seconds 0.1"
