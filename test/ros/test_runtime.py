@@ -110,7 +110,11 @@ class Runtime(unittest.TestCase):
         stepping.start()
         return stepping, answers
 
-    def test_a_long_step_leaves_the_node_responsive_and_reset_stops_it(self):
+    def start_long_step(self):
+        """Pauses and resets the node, then starts the longest ~step one call may take, in a thread.
+
+        Returns the thread, the list its answer lands in, and a ~state that showed the step advancing (None
+        if none did)."""
         self.assertTrue(self.pause(True).success)
         self.assertTrue(self.reset().success)
         paused_frame = self.states.next_frame()
@@ -123,6 +127,10 @@ class Runtime(unittest.TestCase):
             stepping, answers = self.start_step(int(fitting.group(1)))
             # Paused, the frame moves only through the step, and ~state shows it while the step runs.
             moving = self.states.wait_for(lambda s: s.frame > paused_frame)
+        return stepping, answers, moving
+
+    def test_a_long_step_leaves_the_node_responsive_and_reset_stops_it(self):
+        stepping, answers, moving = self.start_long_step()
         try:
             self.assertIsNotNone(moving, "no ~state showed the step advancing while it ran")
             self.assertTrue(stepping.is_alive(), "the step ended too soon to test anything")
@@ -140,16 +148,7 @@ class Runtime(unittest.TestCase):
 
     def test_a_second_step_waits_for_the_one_under_way_and_then_runs(self):
         """One ~step at a time: a second call is answered after the first, and then runs its own frames."""
-        self.assertTrue(self.pause(True).success)
-        self.assertTrue(self.reset().success)
-        paused_frame = self.states.next_frame()
-        first, first_answers = self.start_step(MAX_STEP_FRAMES)
-        moving = self.states.wait_for(lambda s: s.frame > paused_frame or not first.is_alive())
-        if not first.is_alive() and not first_answers[0].success:
-            fitting = re.search(r"at most (\d+) frames", first_answers[0].message)
-            self.assertIsNotNone(fitting, first_answers[0].message)
-            first, first_answers = self.start_step(int(fitting.group(1)))
-            moving = self.states.wait_for(lambda s: s.frame > paused_frame)
+        first, first_answers, moving = self.start_long_step()
         second, second_answers = None, []
         try:
             self.assertIsNotNone(moving, "no ~state showed the first step advancing")
