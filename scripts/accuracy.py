@@ -183,7 +183,9 @@ def main(argv):
             name = "accuracy_%s_%d" % (scene, side)
             csv_path = os.path.join(out_dir, name + ".csv")
             png_path = os.path.join(images, name + ".png") if not args.quick else os.path.join(out_dir, name + ".png")
-            text = runner.run(name, ["--accuracy", "--scene", scene, "--grid", "%dx%d" % (side, side), "--seconds",
+            # The solver's sweep has runs of its own below (--solver-sweep).
+            text = runner.run(name, ["--accuracy", "--no-solver-sweep", "--scene", scene, "--grid",
+                                     "%dx%d" % (side, side), "--seconds",
                                      str(span), "--reference-budget", str(REFERENCE_BUDGET_S[side]),
                                      "--min-timing", str(MIN_TIMING_S), "--csv", csv_path, "--png", png_path])
             metadata, rows = read_csv(csv_path)
@@ -196,8 +198,8 @@ def main(argv):
     for scene in PARETO_SCENES:
         name = "realtime_%s_%d" % (scene, REALTIME_GRID)
         csv_path = os.path.join(out_dir, name + ".csv")
-        runner.run(name, ["--accuracy", "--scene", scene, "--grid", "%dx%d" % (REALTIME_GRID, REALTIME_GRID),
-                          "--seconds", str(REALTIME_SPAN_S), "--realtime", "--reference-budget",
+        runner.run(name, ["--accuracy", "--no-solver-sweep", "--scene", scene, "--grid",
+                          "%dx%d" % (REALTIME_GRID, REALTIME_GRID), "--seconds", str(REALTIME_SPAN_S), "--realtime", "--reference-budget",
                           str(REFERENCE_BUDGET_S[REALTIME_GRID]), "--min-timing", str(MIN_TIMING_S),
                           "--csv", csv_path])
         realtime[scene] = read_csv(csv_path)

@@ -23,6 +23,7 @@
 #include <visualization_msgs/Marker.h>
 
 #include <cmath>
+#include <cstdint>
 #include <string>
 
 namespace {
@@ -30,6 +31,9 @@ namespace {
 constexpr double kWarnThrottle_s = 5.0;
 /// Meshes per second at most by default: the node's frame rate.
 constexpr double kDefaultMeshRateHz = 50.0;
+/// States the subscriber holds: cloth_node sends the frames a late timer tick catches up on back to back
+/// (up to 6, its own ~state queue), and the mesh is scheduled by their stamps, so none is dropped.
+constexpr std::uint32_t kStateQueue = 6;
 /// A state up to this many state periods before its mesh is due counts as on time.
 constexpr double kEarlyStatePeriods = 0.5;
 /// Unit grid the topology is built on: only its triangles and texture coordinates are used.
@@ -69,7 +73,7 @@ class ClothViewer {
     }
     mesh_schedule_ = cloth_sim::MeshSchedule(mesh_rate_hz);
     mesh_pub_ = pnh.advertise<visualization_msgs::Marker>(mesh_topic, 2);
-    state_sub_ = ros::NodeHandle().subscribe(state_topic, 2, &ClothViewer::onState, this);
+    state_sub_ = ros::NodeHandle().subscribe(state_topic, kStateQueue, &ClothViewer::onState, this);
     ROS_INFO("cloth_viewer: %s -> %s at most %.0f Hz", state_sub_.getTopic().c_str(), mesh_pub_.getTopic().c_str(),
              mesh_rate_hz);
     return true;
@@ -80,7 +84,9 @@ class ClothViewer {
     const ros::Time stamp = message->header.stamp;
     // In seconds as doubles: ros::Time's own difference throws (and would end the viewer) when a peer's
     // stamp lies more than 2^31 s from the last one.
-    const double stamp_s = stamp.toSec();
+    // An unstamped state (zero) is scheduled by the viewer's own clock: by its zero stamp it would be due
+    // once and then never again.
+    const double stamp_s = stamp.isZero() ? ros::Time::now().toSec() : stamp.toSec();
     const double state_period_s = stamp_s - last_state_s_;
     last_state_s_ = stamp_s;
     // Half the states' own period early counts as on time, as the node does with its frames (their

@@ -54,7 +54,8 @@ struct ToolOptions {
   std::vector<int> substep_counts = {1, 2, 4, 8, 16, 32, 64};
   ReferenceLimits reference;
   double min_timing_s = kDefaultMinTiming_s;
-  // --solver-sweep
+  // --solver-sweep (and --accuracy, after its integrators, unless --no-solver-sweep)
+  bool solver_sweep = true;
   std::vector<double> solver_tolerances;  ///< empty: defaultSweepTolerances()
   std::vector<int> solver_caps;           ///< empty: defaultSweepCaps()
   std::optional<double> reference_solver_tolerance;  ///< empty: kReferenceSolverTolerance

@@ -31,6 +31,7 @@ constexpr const char* kUsage = R"(usage:
   cloth_bench --accuracy --scene NAME_OR_PATH --seconds T [--max-error E | --realtime] [--csv FILE] [--png FILE]
               [--grid RxC] [--set KEY=VALUE ...] [--integrators a,b] [--substeps-list 1,2,4]
               [--reference-budget S] [--reference-tolerance M] [--min-timing S] [--tolerances ...] [--caps ...]
+              [--no-solver-sweep]
       Runs every integrator at 1..64 substeps per frame (and `auto`) for T simulated seconds and compares every
       frame with a converged reference (rk4, its step halved until the final positions change by less than
       --reference-tolerance, default 1e-9 m RMS; the evidence is printed). Reports cost (ms of CPU per simulated
@@ -38,7 +39,8 @@ constexpr const char* kUsage = R"(usage:
       error); ends with a setting to paste: the cheapest with max error <= E (default 1e-3 m), or with
       --realtime the most accurate that runs at least at real time on this machine. Then, when implicit_euler
       is among the integrators, its solver's tolerance and cap as --solver-sweep measures them (--tolerances,
-      --caps, --reference-solver-tolerance; printed only: --csv and --png hold the integrators' table).
+      --caps, --reference-solver-tolerance; printed only: --csv and --png hold the integrators' table), unless
+      --no-solver-sweep.
   cloth_bench --spatial --scene NAME_OR_PATH --seconds T --grids 20x20,39x39,77x77 [--csv FILE] [--set ...]
       Each grid (same cloth, same material) against the finest, at the particles they share.
   cloth_bench --stability-map [--scene NAME_OR_PATH] [--grid 8x8] [--csv FILE] [--png FILE]
@@ -127,6 +129,10 @@ void parseToolCommandLine(int argc, char** argv, ToolOptions* options, std::vect
     }
     if (flag == "--dynamic") {
       options->dynamic = true;
+      continue;
+    }
+    if (flag == "--no-solver-sweep") {
+      options->solver_sweep = false;
       continue;
     }
     if (i + 1 >= argc) {

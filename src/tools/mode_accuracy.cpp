@@ -242,7 +242,8 @@ int runAccuracy(const ToolOptions& options, const core::SceneOptions& scene) {
   // Beside the integrators and substeps, implicit Euler's other knob: its solver's tolerance and cap
   // (--tolerances, --caps), as --solver-sweep measures them. Printed only: --csv and --png hold the table above.
   const auto& integrators = options.integrators;
-  if (std::find(integrators.begin(), integrators.end(), core::IntegratorKind::kImplicitEuler) == integrators.end()) {
+  if (!options.solver_sweep ||
+      std::find(integrators.begin(), integrators.end(), core::IntegratorKind::kImplicitEuler) == integrators.end()) {
     return kExitOk;
   }
   ToolOptions sweep = options;

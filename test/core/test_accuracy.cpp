@@ -258,7 +258,7 @@ TEST(ClothBenchAccuracy, PrintsTheReferenceEvidenceATableAndARecommendationOnATi
 
 TEST(ClothBenchAccuracy, SweepsImplicitEulersSolverToleranceAndCapBesideTheIntegrators) {
   // Issue 13: `cloth_bench --accuracy` measures the solver's knob too (as --solver-sweep does), where
-  // implicit Euler is among the integrators; without it, nothing of the sort.
+  // implicit Euler is among the integrators; without it, or with --no-solver-sweep, nothing of the sort.
   const std::string base = std::string(CLOTH_BENCH_EXECUTABLE) +
                            " --accuracy --scene hanging --set rows=4 --set cols=4 --seconds 0.1 --min-timing 0"
                            " --substeps-list 4 --tolerances 1e-2,1e-3 --caps 3,none";
@@ -269,9 +269,12 @@ TEST(ClothBenchAccuracy, SweepsImplicitEulersSolverToleranceAndCapBesideTheInteg
   EXPECT_NE(with.find("tolerance        0.01  none"), std::string::npos) << with;
   EXPECT_NE(with.find("cap             0.001     3"), std::string::npos) << with;
   EXPECT_NE(with.find("solver_max_iterations"), std::string::npos) << with;
-  const std::string without = runCommand(base + " --integrators rk4 2>/dev/null", &status);
-  EXPECT_EQ(status, 0) << without;
-  EXPECT_EQ(without.find("solver sweep"), std::string::npos) << without;
+  for (const std::string& without_sweep : {std::string(" --integrators rk4"),
+                                            std::string(" --integrators implicit_euler --no-solver-sweep")}) {
+    const std::string without = runCommand(base + without_sweep + " 2>/dev/null", &status);
+    EXPECT_EQ(status, 0) << without;
+    EXPECT_EQ(without.find("solver sweep"), std::string::npos) << without_sweep << "\n" << without;
+  }
 }
 
 TEST(ClothBenchSolverSweep, PrintsTheReferenceTheToleranceAndCapRowsAndARecommendationOnATinyScene) {

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -72,6 +73,16 @@ TEST(MeshSchedule, TimeGoingBackMakesAMeshDueAtOnce) {
   EXPECT_TRUE(schedule.due(3.0, kEarly_s));  // a looping bag or /clock starts again
   EXPECT_FALSE(schedule.due(3.02, kEarly_s));
   EXPECT_TRUE(schedule.due(3.1, kEarly_s));
+}
+
+TEST(MeshSchedule, AStampThatIsNotFiniteIsNeverDueAndChangesNothing) {
+  MeshSchedule schedule(25.0);
+  EXPECT_TRUE(schedule.due(10.0, kEarly_s));
+  EXPECT_FALSE(schedule.due(std::nan(""), kEarly_s));
+  EXPECT_FALSE(schedule.due(std::numeric_limits<double>::infinity(), kEarly_s));
+  EXPECT_FALSE(schedule.due(10.02, kEarly_s));
+  EXPECT_TRUE(schedule.due(10.04, kEarly_s));
+  EXPECT_TRUE(schedule.due(2.0, kEarly_s));  // time going back is still noticed
 }
 
 TEST(MeshSchedule, AfterFramesStopTheScheduleStartsAgainWithoutABurst) {

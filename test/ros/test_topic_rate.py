@@ -12,9 +12,10 @@ import unittest
 import rostest
 
 FRAME_RATE_HZ = 50.0
-# The stamps are the frames' own times: exactly the frame rate unless frames were dropped (a loaded
-# machine), so a wide margin below and a narrow one above.
-LOWEST_STAMP_RATE_HZ = 35.0
+# The stamps are the frames' own times: exactly the frame rate for ~state unless frames were dropped (a
+# loaded machine), and for ~mesh unless a late timer tick caught up frames and sent one mesh for them, so a
+# wide margin below and a narrow one above.
+LOWEST_STAMP_RATE_HZ = 20.0
 HIGHEST_STAMP_RATE_HZ = 51.0
 TOPICS = ["/cloth_node/state", "/cloth_node/mesh"]
 

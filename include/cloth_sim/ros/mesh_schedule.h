@@ -20,7 +20,7 @@ class MeshSchedule {
   /// shifts the next due times by nothing. The first frame is due, and so is one whose stamp lies before
   /// the last mesh's (time went back: a looping /clock or bag) or a period or more past its due time (the
   /// frames stopped or came slower than the rate): the schedule then starts again from it, rather than
-  /// catching up with a burst.
+  /// catching up with a burst. A stamp that is not finite is never due.
   bool due(double stamp_s, double early_s);
 
  private:
