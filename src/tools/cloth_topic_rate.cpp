@@ -27,6 +27,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -53,6 +54,9 @@ struct TopicRecord {
   std::vector<double> stamps_s;
   std::uint64_t bytes = 0;
   bool has_header = false;
+  /// Whether the type's first field is its Header: read once, from the first message's definition (it is
+  /// the same for every message of a topic, and scanning it per message would cost a flood of small ones).
+  std::optional<bool> headed;
   std::vector<std::uint8_t> buffer;  ///< the last message's bytes (ShapeShifter gives them only by copy)
 };
 
@@ -160,8 +164,8 @@ class RateMeter {
     if (now_s < record.first_arrival_s + skip_s_ || now_s > record.first_arrival_s + skip_s_ + seconds_) return;
     record.arrivals_s.push_back(now_s);
     record.bytes += message.size();
-    const bool has_header = startsWithHeader(message.getMessageDefinition());
-    if (has_header && message.size() >= kStampOffset + kStampBytes) {
+    if (!record.headed) record.headed = startsWithHeader(message.getMessageDefinition());
+    if (*record.headed && message.size() >= kStampOffset + kStampBytes) {
       record.buffer.resize(message.size());
       ros::serialization::OStream stream(record.buffer.data(), static_cast<std::uint32_t>(record.buffer.size()));
       message.write(stream);
