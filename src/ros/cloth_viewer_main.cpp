@@ -92,12 +92,14 @@ class ClothViewer {
     // Half the states' own period early counts as on time, as the node does with its frames (their
     // stamps jitter by tens of microseconds).
     const double early_s = state_period_s > 0.0 ? kEarlyStatePeriods * state_period_s : 0.0;
-    if (!mesh_schedule_.due(stamp_s, early_s)) return;
+    // Converted before it is scheduled: a state that cannot be drawn must not take a mesh's turn (it did,
+    // and the well-formed state after it then waited a whole period).
     std::string error;
     if (!cloth_sim::fromStateMessage(*message, cloth_sim::core::OptionLimits::kMaxGridSide, &positions_m_, &error)) {
       ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_viewer: dropped a ClothState: %s", error.c_str());
       return;
     }
+    if (!mesh_schedule_.due(stamp_s, early_s)) return;
     if (grid_.rows != static_cast<int>(message->rows) || grid_.cols != static_cast<int>(message->cols)) {
       grid_ = cloth_sim::core::buildClothGrid(static_cast<int>(message->rows), static_cast<int>(message->cols),
                                               kUnitSide_m, kUnitSide_m, Eigen::Vector3d::Zero(),
