@@ -1,5 +1,6 @@
 #include "cloth_sim/ros/cloth_node.h"
 
+#include "cloth_sim/core/constants.h"
 #include "cloth_sim/io/scene_file.h"
 #include "cloth_sim/io/state_file.h"
 #include "cloth_sim/io/texture.h"
@@ -41,7 +42,7 @@ constexpr double kWarnThrottle_s = 5.0;
 constexpr const char* kDefaultScene = "drape";
 /// A mesh counts as due this fraction of a frame before its due time (timer ticks jitter).
 constexpr double kMeshEarlyFrames = 0.5;
-constexpr double kMillisecondsPerSecond = 1000.0;
+using core::kMillisecondsPerSecond;
 /// How often a service thread waiting for its ~step looks whether the node is shutting down.
 constexpr std::chrono::milliseconds kStepWaitPoll{100};
 
