@@ -12,6 +12,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <limits>
 #include <set>
 #include <sstream>
 
@@ -85,7 +86,16 @@ T readScalar(const YAML::Node& node, const char* expected, std::initializer_list
 }
 
 double readDouble(const YAML::Node& node) { return readScalar<double>(node, "a number", {"float", "int"}); }
-int readInt(const YAML::Node& node) { return readScalar<int>(node, "an integer", {"int"}); }
+int readInt(const YAML::Node& node) {
+  try {
+    return readScalar<int>(node, "an integer", {"int"});
+  } catch (const WrongType&) {
+    // An integer too large for an int (a camera seed of 2^31) is still an integer: say the range.
+    const long long wide = readScalar<long long>(node, "an integer", {"int"});
+    throw WrongType{"an integer within [" + std::to_string(std::numeric_limits<int>::min()) + ", " +
+                    std::to_string(std::numeric_limits<int>::max()) + "] (" + std::to_string(wide) + " is not)"};
+  }
+}
 bool readBool(const YAML::Node& node) { return readScalar<bool>(node, "true or false", {"bool"}); }
 std::string readString(const YAML::Node& node) { return readScalar<std::string>(node, "a string", {"str"}); }
 
@@ -259,7 +269,7 @@ std::vector<CameraOptions> readCameras(const YAML::Node& node) {
         if (f == "noise" && !parseDepthNoiseName(readString(v), &c.noise)) throw WrongType{"none or kinect"};
         if (f == "seed") {
           const int seed = readInt(v);
-          if (seed < 0) throw WrongType{"an integer >= 0"};
+          if (seed < 0) throw WrongType{"an integer within [0, " + std::to_string(std::numeric_limits<int>::max()) + "]"};
           c.seed = static_cast<std::uint32_t>(seed);
         }
       });

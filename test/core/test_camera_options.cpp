@@ -124,5 +124,18 @@ TEST(CameraOptions, UnknownNoiseAndKeysAreRefusedByName) {
   EXPECT_NE(errors[0].find("'focal'"), std::string::npos) << errors[0];
 }
 
+// A seed past an int's range is refused with the range it must lie in, not as "not an integer".
+TEST(CameraOptions, ASeedOutOfRangeIsRefusedWithItsRange) {
+  SceneOptions options;
+  std::vector<std::string> errors;
+  for (const char* seed : {"2147483648", "-1"}) {
+    errors.clear();
+    EXPECT_FALSE(readScene(std::string("cameras: [{name: a, frame: f, seed: ") + seed + "}]", &options, &errors));
+    ASSERT_EQ(errors.size(), 1u) << seed;
+    EXPECT_NE(errors[0].find("seed is an integer within ["), std::string::npos) << errors[0];
+    EXPECT_NE(errors[0].find("2147483647]"), std::string::npos) << errors[0];
+  }
+}
+
 }  // namespace
 }  // namespace cloth_sim::core
