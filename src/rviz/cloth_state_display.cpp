@@ -70,6 +70,7 @@ void ClothStateDisplay::reset() {
   mesh_->clear();
   mesh_built_ = false;
   rows_ = cols_ = 0;
+  active_.clear();
 }
 
 void ClothStateDisplay::updateAppearance() {
@@ -127,6 +128,11 @@ void ClothStateDisplay::draw(const cloth_sim::ClothState& message) {
     return;
   }
   const std::size_t count = message.positions.size();
+  if (!message.active.empty() && message.active.size() != count) {
+    setStatus(rviz::StatusProperty::Error, "Message",
+              QString("%1 active flags for %2 particles: not drawn").arg(message.active.size()).arg(count));
+    return;
+  }
   std::vector<Eigen::Vector3f> positions(count);
   for (std::size_t i = 0; i < count; ++i) {
     const geometry_msgs::Point& p = message.positions[i];
@@ -150,30 +156,42 @@ void ClothStateDisplay::draw(const cloth_sim::ClothState& message) {
   scene_node_->setPosition(position);
   scene_node_->setOrientation(orientation);
 
-  if (static_cast<int>(rows) != rows_ || static_cast<int>(cols) != cols_) {
+  // A particle outside the scene's outline (ClothState::active) is not cloth: frozen where it started, it
+  // is in no triangle and no normal.
+  const auto is_cloth = [&](std::size_t i) { return active_.empty() || active_[i] != 0; };
+  if (static_cast<int>(rows) != rows_ || static_cast<int>(cols) != cols_ || message.active != active_) {
     rows_ = static_cast<int>(rows);
     cols_ = static_cast<int>(cols);
+    active_ = message.active;
     computeColours(rows_, cols_);
     // Two triangles per quad, counter-clockwise seen from the side the normals point to.
     indices_.clear();
     indices_.reserve(static_cast<std::size_t>(rows_ - 1) * (cols_ - 1) * 6);
+    const auto add = [&](std::uint32_t p, std::uint32_t q, std::uint32_t r) {
+      if (is_cloth(p) && is_cloth(q) && is_cloth(r)) indices_.insert(indices_.end(), {p, q, r});
+    };
     for (int r = 0; r + 1 < rows_; ++r) {
       for (int c = 0; c + 1 < cols_; ++c) {
         const std::uint32_t a = static_cast<std::uint32_t>(r * cols_ + c);
         const std::uint32_t b = a + 1;
         const std::uint32_t d = a + static_cast<std::uint32_t>(cols_);
         const std::uint32_t e = d + 1;
-        indices_.insert(indices_.end(), {a, b, d, b, e, d});
+        add(a, b, d);
+        add(b, e, d);
       }
     }
     mesh_built_ = false;
   }
-  // Per-particle normals from central differences along the grid (one-sided at the edges): the cross
-  // product of the column and row directions, the same orientation as the triangles above.
+  // Per-particle normals from central differences along the grid (one-sided at the edges, and where a
+  // neighbour is not cloth): the cross product of the column and row directions, the same orientation as
+  // the triangles above.
   std::vector<Eigen::Vector3f> normals(count);
   for (int r = 0; r < rows_; ++r) {
     for (int c = 0; c < cols_; ++c) {
-      const auto at = [&](int rr, int cc) { return positions[static_cast<std::size_t>(rr * cols_ + cc)]; };
+      const auto at = [&](int rr, int cc) {
+        const std::size_t i = static_cast<std::size_t>(rr * cols_ + cc);
+        return positions[is_cloth(i) ? i : static_cast<std::size_t>(r * cols_ + c)];
+      };
       const Eigen::Vector3f along_cols = at(r, std::min(c + 1, cols_ - 1)) - at(r, std::max(c - 1, 0));
       const Eigen::Vector3f along_rows = at(std::min(r + 1, rows_ - 1), c) - at(std::max(r - 1, 0), c);
       const Eigen::Vector3f normal = along_cols.cross(along_rows);

@@ -8,6 +8,7 @@ rviz:=false loop:=false` against the test's master, and waits
     recorded positions;
   - with viewer:=true at 25 Hz from a recording whose even states are malformed, for meshes of the odd
     ones: a state the viewer drops does not use up a mesh's turn;
+  - with viewer:=true from states whose `active` leaves a particle out (an outline), for a mesh without it;
   - with the defaults, for /tf_static to carry `world` (rviz's fixed frame in config/cloth.rviz) as a
     child of `map`: without it rviz's Global Status stays at Warn ("Fixed Frame: No tf data").
 Run by test/ros/playback.test.
@@ -54,6 +55,14 @@ def malformed_on_even_frames(frame):
     state = recorded_state(frame)
     if frame % 2 == 0:
         state.positions = state.positions[:-1]
+    return state
+
+
+def outlined_state(frame):
+    """recorded_state of a cloth whose outline left particle 0 out: frozen far from the rest, not cloth."""
+    state = recorded_state(frame)
+    state.positions[0] = Point(5.0, 5.0, 5.0)
+    state.active = [0] + [1] * (ROWS * COLS - 1)
     return state
 
 
@@ -116,6 +125,16 @@ class Playback(unittest.TestCase):
             frame = round((mesh.header.stamp.to_sec() - 1.0) / FRAME_S)
             self.assertEqual(frame % 2, 1, "a mesh from a malformed state")
             self.assertEqual(len(mesh.points), 6 * (ROWS - 1) * (COLS - 1))
+
+    def test_particles_outside_an_outline_are_left_out_of_the_mesh(self):
+        # The quad at particle 0 loses both its triangles (the node's own ~mesh leaves them out the same way).
+        meshes = []
+        subscriber = rospy.Subscriber("/cloth_node/mesh", Marker, meshes.append, queue_size=10)
+        output = play_until(["viewer:=true"], lambda: meshes, outlined_state)
+        subscriber.unregister()
+        self.assertTrue(meshes, "no mesh from playback.launch viewer:=true; roslaunch said:\n" + output[-2000:])
+        self.assertEqual(len(meshes[0].points), 6 * (ROWS - 1) * (COLS - 1) - 6)
+        self.assertFalse([p for p in meshes[0].points if p.x == 5.0], "the removed particle was drawn")
 
     def test_a_recording_without_tf_still_has_the_fixed_frame(self):
         # The bag written here holds no /tf and no /tf_static: the frame can only come from the launch.
