@@ -533,6 +533,14 @@ bool Simulation::recover(const FrameEnvelope& envelope, FrameReport* report) {
   return true;
 }
 
+void Simulation::remakeIntegratorIfChanged(const SceneOptions& options) {
+  if (options.integrator != options_.integrator || options.solver.tolerance != options_.solver.tolerance ||
+      options.solver.max_iterations != options_.solver.max_iterations ||
+      options.solver.preconditioner != options_.solver.preconditioner) {
+    integrator_ = makeIntegrator(options.integrator, options.solver);
+  }
+}
+
 bool Simulation::retune(const SceneOptions& given, std::string* error) {
   const SceneOptions options = resolveMaterial(given);
   const std::string changed = materialConstantChanged(given, options);
@@ -553,11 +561,7 @@ bool Simulation::retune(const SceneOptions& given, std::string* error) {
     *error = inside;  // a recovery's reset would start it there
     return false;
   }
-  if (options.integrator != options_.integrator || options.solver.tolerance != options_.solver.tolerance ||
-      options.solver.max_iterations != options_.solver.max_iterations ||
-      options.solver.preconditioner != options_.solver.preconditioner) {
-    integrator_ = makeIntegrator(options.integrator, options.solver);
-  }
+  remakeIntegratorIfChanged(options);
   options_ = options;
   inputs_.frame_colliders.resize(options_.colliders.frames.size());  // new links are unseen until posed
   force_model_.refreshConstraints();  // the pins' swing and the spheres may have changed

@@ -188,11 +188,7 @@ bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error)
     *error = "snapshot " + problem;
     return false;
   }
-  if (options.integrator != options_.integrator || options.solver.tolerance != options_.solver.tolerance ||
-      options.solver.max_iterations != options_.solver.max_iterations ||
-      options.solver.preconditioner != options_.solver.preconditioner) {
-    integrator_ = makeIntegrator(options.integrator, options.solver);
-  }
+  remakeIntegratorIfChanged(options);
   options_ = options;
   inputs_ = snapshot.inputs;
   state_ = snapshot.state;
