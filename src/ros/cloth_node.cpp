@@ -144,7 +144,15 @@ bool ClothNode::start(std::string* error) {
   // The mouse's commands join ~grasp's queue, so they are applied in order with the topic's.
   mouse_ = std::make_unique<MouseDrag>(pnh_.resolveName(Names::kMouseNamespace), [this](const cloth_sim::Grasp& grasp) {
     onGraspReceived(boost::make_shared<const cloth_sim::Grasp>(grasp));
-  }, [this](const Eigen::Vector3d& point_m) { return simulation_->nearestParticle(point_m); });
+  }, [this](const std_msgs::Header& header, const Eigen::Vector3d& point_m) {
+    geometry_msgs::PointStamped point;
+    point.header = header;
+    point.point = toPoint(point_m);
+    geometry_msgs::PointStamped in_frame;
+    std::string why;
+    if (!frame_inputs_.express(point, frame_id_, &in_frame, &why)) return -1;
+    return simulation_->nearestParticle(Eigen::Vector3d(in_frame.point.x, in_frame.point.y, in_frame.point.z));
+  });
   reset_srv_ = pnh_.advertiseService(Names::kResetService, &ClothNode::onReset, this);
   pause_srv_ = pnh_.advertiseService(Names::kPauseService, &ClothNode::onPause, this);
   // ~step waits for its frames on a thread of its own, so the spin thread stays free to run them in chunks

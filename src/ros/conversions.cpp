@@ -28,8 +28,6 @@ Xyz toXyz(const Eigen::Vector3d& v) {
   return out;
 }
 
-geometry_msgs::Point toPoint(const Eigen::Vector3d& p) { return toXyz<geometry_msgs::Point>(p); }
-
 std_msgs::ColorRGBA toColor(const Eigen::Vector3f& rgb) {
   std_msgs::ColorRGBA color;
   color.r = rgb.x();
@@ -235,6 +233,8 @@ cloth_sim::ClothState toStateMessage(const core::Simulation& simulation, const s
 }
 
 geometry_msgs::Vector3 toVector3(const Eigen::Vector3d& v) { return toXyz<geometry_msgs::Vector3>(v); }
+
+geometry_msgs::Point toPoint(const Eigen::Vector3d& p) { return toXyz<geometry_msgs::Point>(p); }
 
 geometry_msgs::TransformStamped identityTransform(const std::string& parent_frame, const std::string& child_frame,
                                                   const ros::Time& stamp) {

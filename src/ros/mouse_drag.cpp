@@ -65,7 +65,7 @@ void MouseDrag::onFeedback(const visualization_msgs::InteractiveMarkerFeedbackCo
     grab_frame_ = feedback->header.frame_id;
     marker_at_grab_m_ = marker_m;
     dragging_ = true;
-    particle_ = pick_(grab_point_m_);
+    particle_ = pick_(feedback->header, grab_point_m_);
     cloth_sim::Grasp grab = graspMessage(feedback->header, cloth_sim::Grasp::GRAB);
     grab.target = feedback->mouse_point;
     grasp_(grab);

@@ -52,6 +52,8 @@ visualization_msgs::MarkerArray toColliderMarkers(const core::Simulation& simula
 
 /// A vector (a velocity, a force, a torque) as a message.
 geometry_msgs::Vector3 toVector3(const Eigen::Vector3d& v);
+/// A point (m) as a message.
+geometry_msgs::Point toPoint(const Eigen::Vector3d& p);
 
 /// child_frame at parent_frame's origin, unrotated: the static tf that places the cloth's frame in a
 /// parent frame (the node's and the viewer's ~parent_frame_id).
