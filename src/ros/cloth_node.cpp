@@ -409,8 +409,14 @@ void ClothNode::publish(const ros::Time& stamp, bool with_state) {
   if (colliders_pub_.getNumSubscribers() > 0 && !simulation_->options().colliders.empty()) {
     colliders_pub_.publish(toColliderMarkers(*simulation_, frame_id_, stamp));
   }
-  const auto transforms = toSphereTransforms(*simulation_, frame_id_, stamp);
-  if (!transforms.empty()) tf_broadcaster_.sendTransform(transforms);
+  // Once per stamp: under /use_sim_time a tick with no new time (roscpp fires a late timer again when
+  // /clock leaps) sent the same stamp twice, and every tf listener, the node's own too, logged
+  // TF_REPEATED_DATA for each sphere.
+  if (stamp != last_sphere_stamp_) {
+    const auto transforms = toSphereTransforms(*simulation_, frame_id_, stamp);
+    if (!transforms.empty()) tf_broadcaster_.sendTransform(transforms);
+    last_sphere_stamp_ = stamp;
+  }
   cameras_->publish(*simulation_, stamp);  // ~points and the cameras, each only while subscribed
   if (mouse_) mouse_->update(*simulation_, frame_id_, stamp);
 }
