@@ -16,6 +16,7 @@
 #include <rviz/properties/color_property.h>
 #include <rviz/properties/float_property.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -128,9 +129,13 @@ void ClothStateDisplay::draw(const cloth_sim::ClothState& message) {
     return;
   }
   const std::size_t count = message.positions.size();
-  if (!message.active.empty() && message.active.size() != count) {
+  // The same flags cloth_viewer accepts (fromStateMessage): none, or one 0 or 1 per particle.
+  const bool flags_ok = message.active.empty() ||
+                        (message.active.size() == count &&
+                         std::all_of(message.active.begin(), message.active.end(), [](std::uint8_t a) { return a <= 1; }));
+  if (!flags_ok) {
     setStatus(rviz::StatusProperty::Error, "Message",
-              QString("%1 active flags for %2 particles: not drawn").arg(message.active.size()).arg(count));
+              QString("%1 active flags for %2 particles, each 0 or 1: not drawn").arg(message.active.size()).arg(count));
     return;
   }
   std::vector<Eigen::Vector3f> positions(count);
@@ -164,22 +169,12 @@ void ClothStateDisplay::draw(const cloth_sim::ClothState& message) {
     cols_ = static_cast<int>(cols);
     active_ = message.active;
     computeColours(rows_, cols_);
-    // Two triangles per quad, counter-clockwise seen from the side the normals point to.
-    indices_.clear();
-    indices_.reserve(static_cast<std::size_t>(rows_ - 1) * (cols_ - 1) * 6);
-    const auto add = [&](std::uint32_t p, std::uint32_t q, std::uint32_t r) {
-      if (is_cloth(p) && is_cloth(q) && is_cloth(r)) indices_.insert(indices_.end(), {p, q, r});
-    };
-    for (int r = 0; r + 1 < rows_; ++r) {
-      for (int c = 0; c + 1 < cols_; ++c) {
-        const std::uint32_t a = static_cast<std::uint32_t>(r * cols_ + c);
-        const std::uint32_t b = a + 1;
-        const std::uint32_t d = a + static_cast<std::uint32_t>(cols_);
-        const std::uint32_t e = d + 1;
-        add(a, b, d);
-        add(b, e, d);
-      }
-    }
+    // The core grid's triangles, as the node's ~mesh and cloth_viewer draw them (two per quad, split
+    // along the same diagonal, counter-clockwise seen from the side the normals point to): with an
+    // outline, a quad that loses a corner keeps the same half here as there.
+    const core::ClothGrid grid = core::buildClothGrid(rows_, cols_, kUnitSide_m, kUnitSide_m, Eigen::Vector3d::Zero(),
+                                                      Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), active_);
+    indices_.assign(grid.triangles.begin(), grid.triangles.end());
     mesh_built_ = false;
   }
   // Per-particle normals from central differences along the grid (one-sided at the edges, and where a
