@@ -90,10 +90,10 @@ int readInt(const YAML::Node& node) {
   try {
     return readScalar<int>(node, "an integer", {"int"});
   } catch (const WrongType&) {
-    // An integer too large for an int (a camera seed of 2^31) is still an integer: say the range.
-    const long long wide = readScalar<long long>(node, "an integer", {"int"});
-    throw WrongType{"an integer within [" + std::to_string(std::numeric_limits<int>::min()) + ", " +
-                    std::to_string(std::numeric_limits<int>::max()) + "] (" + std::to_string(wide) + " is not)"};
+    // An integer too large for an int (rows: 3000000000) is still an integer: say so, and leave the
+    // field's own range to the field (readCameras' seed) or to validateSceneOptions.
+    readScalar<long long>(node, "an integer", {"int"});
+    throw WrongType{"an integer no larger in size than " + std::to_string(std::numeric_limits<int>::max())};
   }
 }
 bool readBool(const YAML::Node& node) { return readScalar<bool>(node, "true or false", {"bool"}); }
@@ -268,8 +268,11 @@ std::vector<CameraOptions> readCameras(const YAML::Node& node) {
         if (f == "max_range") c.max_range_m = readDouble(v);
         if (f == "noise" && !parseDepthNoiseName(readString(v), &c.noise)) throw WrongType{"none or kinect"};
         if (f == "seed") {
-          const int seed = readInt(v);
-          if (seed < 0) throw WrongType{"an integer within [0, " + std::to_string(std::numeric_limits<int>::max()) + "]"};
+          // Read wide, so that 2^31 is refused with the seed's own range rather than an int's.
+          const long long seed = readScalar<long long>(v, "an integer", {"int"});
+          if (seed < 0 || seed > std::numeric_limits<int>::max()) {
+            throw WrongType{"an integer within [0, " + std::to_string(std::numeric_limits<int>::max()) + "]"};
+          }
           c.seed = static_cast<std::uint32_t>(seed);
         }
       });

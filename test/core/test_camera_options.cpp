@@ -132,9 +132,20 @@ TEST(CameraOptions, ASeedOutOfRangeIsRefusedWithItsRange) {
     errors.clear();
     EXPECT_FALSE(readScene(std::string("cameras: [{name: a, frame: f, seed: ") + seed + "}]", &options, &errors));
     ASSERT_EQ(errors.size(), 1u) << seed;
-    EXPECT_NE(errors[0].find("seed is an integer within ["), std::string::npos) << errors[0];
-    EXPECT_NE(errors[0].find("2147483647]"), std::string::npos) << errors[0];
+    EXPECT_NE(errors[0].find(std::string("maps whose seed is an integer within [0, 2147483647] ([0].seed = '") +
+                             seed + "')"),
+              std::string::npos)
+        << errors[0];
   }
+}
+
+// Any other integer field past an int's range says so, and its own range comes from validation.
+TEST(CameraOptions, AnIntegerPastAnIntsRangeIsRefusedAsSuch) {
+  SceneOptions options;
+  std::vector<std::string> errors;
+  EXPECT_FALSE(readScene("cameras: [{name: a, frame: f, width: 3000000000}]", &options, &errors));
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_NE(errors[0].find("width is an integer no larger in size than 2147483647"), std::string::npos) << errors[0];
 }
 
 }  // namespace
