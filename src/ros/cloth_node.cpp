@@ -150,7 +150,11 @@ bool ClothNode::start(std::string* error) {
     point.point = toPoint(point_m);
     geometry_msgs::PointStamped in_frame;
     std::string why;
-    if (!frame_inputs_.express(point, frame_id_, &in_frame, &why)) return -1;
+    if (!frame_inputs_.express(point, frame_id_, &in_frame, &why)) {
+      ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped a mouse-down in frame '%s': %s",
+                        header.frame_id.c_str(), why.c_str());
+      return -1;
+    }
     return simulation_->nearestParticle(Eigen::Vector3d(in_frame.point.x, in_frame.point.y, in_frame.point.z));
   });
   reset_srv_ = pnh_.advertiseService(Names::kResetService, &ClothNode::onReset, this);

@@ -128,11 +128,13 @@ class MouseDrag(unittest.TestCase):
         drag = self.feedback_message(InteractiveMarkerFeedback.POSE_UPDATE,
                                      marker_position=(SHIFT_M + DRAG[0], DRAG[1], DRAG[2]))
         drag.header.frame_id = SHIFTED_FRAME
-        # tf may take a moment to hear of the frame: the mouse-down is sent again until the corner follows.
-        followed = self.states.wait_for(lambda s: distance(s.positions[CORNER], target) < TOLERANCE_M,
-                                        keep_doing=lambda: (self.feedback.publish(down), self.feedback.publish(drag)))
         up = self.feedback_message(InteractiveMarkerFeedback.MOUSE_UP)
         up.header.frame_id = SHIFTED_FRAME
+        # tf may take a moment to hear of the frame: the whole click (up, down, drag) is sent again until
+        # the corner follows, each time picking afresh.
+        followed = self.states.wait_for(lambda s: distance(s.positions[CORNER], target) < TOLERANCE_M,
+                                        keep_doing=lambda: (self.feedback.publish(up), self.feedback.publish(down),
+                                                            self.feedback.publish(drag)))
         self.feedback.publish(up)
         last = self.states.latest.positions[CORNER]
         self.assertIsNotNone(followed, "the clicked corner stayed %.3f m from the mouse's target"
