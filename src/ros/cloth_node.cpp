@@ -13,7 +13,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <iomanip>
 #include <set>
 #include <sstream>
 
@@ -287,6 +286,7 @@ void ClothNode::install(std::unique_ptr<core::Simulation> simulation) {
   timer_.setPeriod(frame_period);
   last_report_ = core::FrameReport();
   asleep_ = false;
+  last_sphere_stamp_.reset();  // the new scene's spheres go out at the next publish
   reanchor();
   pushConfig();
 }
@@ -416,7 +416,7 @@ void ClothNode::publish(const ros::Time& stamp, bool with_state) {
   // Once per stamp: under /use_sim_time a tick with no new time (roscpp fires a late timer again when
   // /clock leaps) sent the same stamp twice, and every tf listener, the node's own too, logged
   // TF_REPEATED_DATA for each sphere.
-  if (stamp != last_sphere_stamp_) {
+  if (last_sphere_stamp_ != stamp) {
     const auto transforms = toSphereTransforms(*simulation_, frame_id_, stamp);
     if (!transforms.empty()) tf_broadcaster_.sendTransform(transforms);
     last_sphere_stamp_ = stamp;
@@ -692,6 +692,7 @@ bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::L
   timer_.setPeriod(ros::Duration(simulation_->options().frameDuration_s()));
   last_report_ = core::FrameReport();
   asleep_ = false;
+  last_sphere_stamp_.reset();  // the loaded spheres go out with the state, whatever the clock reads
   reanchor();  // the loaded frame is due now: the run continues from here at the frame rate
   pushConfig();
   publish(ros::Time::now());

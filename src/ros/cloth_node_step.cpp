@@ -6,8 +6,12 @@
 #include "cloth_sim/core/constants.h"
 #include "cloth_sim/ros/shutdown.h"
 
+#include <boost/make_shared.hpp>
+
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <iomanip>
 #include <memory>
 #include <mutex>
 #include <sstream>
