@@ -1,5 +1,4 @@
 // cloth_message_bench: what the node's messages cost per frame, without a master or a network.
-
 //
 //   rosrun cloth_sim cloth_message_bench [--sizes 64,128,256] [--repeats 50] [--scene hanging]
 //

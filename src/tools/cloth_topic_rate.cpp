@@ -1,5 +1,4 @@
 // cloth_topic_rate: how fast topics really arrive at a C++ subscriber, as one JSON line.
-
 //
 //   rosrun cloth_sim cloth_topic_rate [--seconds 10] [--wait 30] [--skip 1] [--queue 1] TOPIC...
 //

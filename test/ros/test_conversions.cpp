@@ -291,6 +291,7 @@ TEST(StateMessage, SaysWhichParticlesAreClothAndTheMeshFromItIsTheNodes) {
   EXPECT_LT(drawn.points.size(), 6u * 8u * 8u);
   for (std::size_t k = 0; k < drawn.points.size(); ++k) {
     EXPECT_EQ(drawn.points[k].x, node.points[k].x) << k;
+    EXPECT_EQ(drawn.points[k].y, node.points[k].y) << k;
     EXPECT_EQ(drawn.points[k].z, node.points[k].z) << k;
   }
 }

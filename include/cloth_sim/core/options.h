@@ -240,7 +240,7 @@ std::string exactNumberText(double value, int fewest_digits);
 std::vector<std::string> validateSceneOptions(const SceneOptions& options);
 
 /// Whether two scene options build the same cloth grid (rows, columns, sides, pose, pins and their
-/// motion, mass, outline): a retune or a restored snapshot must keep the grid.
+/// motion, mass, whether a material sets it, outline): a retune or a restored snapshot must keep the grid.
 bool sameClothGrid(const SceneOptions& a, const SceneOptions& b);
 
 /// Resolves the pin selectors to sorted, unique particle indices; an unknown selector is reported in
