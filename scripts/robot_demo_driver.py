@@ -10,8 +10,9 @@ poses the grippers' and the forearm's colliders from that tf, and the grippers h
   1.0 s        ~attach: each gripper holds the particles within 3 cm of its grip point
   1.0 - 4.0 s  lift to 1 m and drag the towel over the table's far edge
   4.0 - 7.0 s  lift clear of the table and carry it just past the forearm, which catches it
-  7.0 - 8.0 s  lower to 0.55 m on the forearm's far side: the towel hangs over it, four fifths on that side
-  8.0 s        ~detach both: it slides off the forearm and falls to the floor
+  7.0 - 8.0 s  lower to 0.55 m on the forearm's far side: four fifths of the towel on that side, it slides
+               off the forearm and hangs from the grippers
+  8.0 s        ~detach both: it falls to the floor
 then the robot holds still. Parameters (private): ~cloth_node (default /cloth_node), ~loop (default false:
 run once; true: reset the cloth with ~reset and start again every ~period seconds, default 10).
 """
@@ -32,11 +33,12 @@ TOWEL_Z_M = 0.705
 FOREARM_Y_M = 0.75
 FOREARM_Z_M = 0.95
 # Where the grippers let go: low on the forearm's far side, so that about four fifths of the towel (50 cm)
-# hang there and it slides off. The lower, the surer: over a round bar friction can hold a towel whose
-# near side is as little as exp(-mu theta) of the far one (the capstan equation: 15 % at mu 0.6 over half a
-# turn), and let go at 0.82 m (half each side) and at 0.65 m (two thirds on the far side) the towel stayed
-# on the forearm in some CI runs, where the wall-clock driver caught a lagging node's towel elsewhere. Not
-# lower: from 0.45 m the towel slipped over the forearm while still held.
+# hang there and it comes off the forearm. The lower, the surer: over a round bar friction can hold a towel
+# whose near side is as little as exp(-mu theta) of the far one (the capstan equation: 15 % at mu 0.6 over
+# half a turn), and let go at 0.82 m (half each side) and at 0.65 m (two thirds on the far side) the towel
+# stayed on the forearm in some CI runs, where the wall-clock driver caught a lagging node's towel
+# elsewhere. At 0.55 m (and at 0.45 m) it slides off the forearm while still held (an audit's two runs,
+# 2026-11-27: no particle within 6 cm of the forearm's axis when the hands let go), so it falls clear.
 LET_GO_Z_M = 0.55
 # (time s, y, z) of both grippers: smoothstep legs between the waypoints.
 WAYPOINTS = [

@@ -16,6 +16,14 @@ namespace cloth_sim::core {
 
 namespace {
 
+/// The same outline: the fields of its shape (a retune compares them, not the masks they give, which
+/// would be rebuilt for every reconfigure).
+bool sameOutline(const OutlineOptions& a, const OutlineOptions& b) {
+  if (a.shape != b.shape) return false;
+  if (a.shape == OutlineOptions::Shape::kCircle) return a.center_m == b.center_m && a.radius_m == b.radius_m;
+  return a.shape == OutlineOptions::Shape::kNone || a.vertices_m == b.vertices_m;
+}
+
 /// How far from unit length an axis or normal may be, and how far from orthogonal two axes may be.
 constexpr double kUnitTolerance = 1e-6;
 /// Most characters of a pin selector quoted in an error (it may come from any file given to ~load_scene).
@@ -523,6 +531,13 @@ std::vector<int> resolvePins(const std::vector<std::string>& selectors, int rows
   std::sort(pins.begin(), pins.end());
   pins.erase(std::unique(pins.begin(), pins.end()), pins.end());
   return pins;
+}
+
+bool sameClothGrid(const SceneOptions& a, const SceneOptions& b) {
+  return a.rows == b.rows && a.cols == b.cols && a.width_m == b.width_m && a.height_m == b.height_m &&
+         a.origin_m == b.origin_m && a.u_axis == b.u_axis && a.v_axis == b.v_axis && a.pins == b.pins &&
+         a.pin_positions_m == b.pin_positions_m && a.pin_travel_time_s == b.pin_travel_time_s &&
+         a.mass_kg == b.mass_kg && a.has_material == b.has_material && sameOutline(a.outline, b.outline);
 }
 
 }  // namespace cloth_sim::core

@@ -8,7 +8,6 @@
 #include <limits>
 #include <sstream>
 #include <stdexcept>
-#include <type_traits>
 
 namespace cloth_sim::core {
 
@@ -16,21 +15,6 @@ namespace {
 
 /// Squares of the built-in checker per side of the cloth.
 constexpr int kCheckerSquares = 8;
-
-/// The same outline: the fields of its shape (a retune compares them, not the masks they give, which
-/// would be rebuilt for every reconfigure).
-bool sameOutline(const OutlineOptions& a, const OutlineOptions& b) {
-  if (a.shape != b.shape) return false;
-  if (a.shape == OutlineOptions::Shape::kCircle) return a.center_m == b.center_m && a.radius_m == b.radius_m;
-  return a.shape == OutlineOptions::Shape::kNone || a.vertices_m == b.vertices_m;
-}
-
-bool sameGrid(const SceneOptions& a, const SceneOptions& b) {
-  return a.rows == b.rows && a.cols == b.cols && a.width_m == b.width_m && a.height_m == b.height_m &&
-         a.origin_m == b.origin_m && a.u_axis == b.u_axis && a.v_axis == b.v_axis && a.pins == b.pins &&
-         a.pin_positions_m == b.pin_positions_m && a.pin_travel_time_s == b.pin_travel_time_s &&
-         a.mass_kg == b.mass_kg && a.has_material == b.has_material && sameOutline(a.outline, b.outline);
-}
 
 /// Empty when `given` leaves the constants its material sets as the material sets them (a retune passes
 /// back what options() gave, material constants included); else which one it changed.
@@ -72,36 +56,6 @@ Eigen::VectorXd particleMasses(const SceneOptions& options, const ClothGrid& gri
   }
   return mass;
 }
-
-/// FNV-1a over raw bytes (64-bit): equal inputs give equal fingerprints on one machine, which is all the
-/// sleep test needs (it is kept in the state file beside the state it belongs to).
-class Fingerprint {
- public:
-  void add(const void* data, std::size_t size) {
-    const auto* bytes = static_cast<const unsigned char*>(data);
-    for (std::size_t i = 0; i < size; ++i) hash_ = (hash_ ^ bytes[i]) * kPrime;
-  }
-  template <typename T>
-  void add(const T& value) {
-    static_assert(std::is_trivially_copyable_v<T>);
-    add(&value, sizeof(T));
-  }
-  /// A count, as 64 bits whatever the platform's size_t (the fingerprint is in the state file).
-  void addCount(std::size_t count) { add(static_cast<std::uint64_t>(count)); }
-  /// Its shape and its values (any plain matrix: no copy on the per-frame path).
-  template <typename Derived>
-  void addMatrix(const Eigen::PlainObjectBase<Derived>& values) {
-    addCount(static_cast<std::size_t>(values.rows()));
-    addCount(static_cast<std::size_t>(values.cols()));
-    add(values.data(), sizeof(double) * static_cast<std::size_t>(values.size()));
-  }
-  std::uint64_t value() const { return hash_; }
-
- private:
-  static constexpr std::uint64_t kOffsetBasis = 14695981039346656037ULL;
-  static constexpr std::uint64_t kPrime = 1099511628211ULL;
-  std::uint64_t hash_ = kOffsetBasis;
-};
 
 /// The options if they are valid; throws std::invalid_argument with the first problem otherwise.
 const SceneOptions& validated(const SceneOptions& options) {
@@ -543,94 +497,6 @@ FrameReport Simulation::advanceFrame() {
   return report;
 }
 
-bool Simulation::isDriven() const {
-  const Kinematics& kinematics = force_model_.kinematics();
-  for (std::size_t body = 0; body < kinematics.bodies().size(); ++body) {
-    if (kinematics.peakSpeed_m_per_s(body, state_.time_s) > kHeldStillSpeed_m_per_s) return true;
-  }
-  return options_.wind_enabled && options_.wind.gust_amplitude != 0.0 && !inputs_.wind_m_per_s.isZero(0.0);
-}
-
-std::uint64_t Simulation::driveFingerprint() const {
-  Fingerprint print;
-  print.add(options_.wind_enabled);
-  print.addMatrix(inputs_.wind_m_per_s);
-  for (const Grasp& grasp : inputs_.grasps) {
-    print.add(grasp.id);
-    print.add(grasp.particle);
-    print.addMatrix(grasp.target_m);
-    print.add(grasp.stiffness_N_per_m);
-    print.add(grasp.damping_N_s_per_m);
-    print.addMatrix(grasp.extra_force_N);
-  }
-  print.addCount(inputs_.pins.size());
-  print.add(inputs_.pins.data(), sizeof(int) * inputs_.pins.size());
-  print.addMatrix(inputs_.pin_anchors_m);
-  print.addMatrix(inputs_.pin_travel_m);
-  for (const Gripper& gripper : inputs_.grippers) {
-    print.add(gripper.id);
-    print.addCount(gripper.particles.size());
-    print.add(gripper.particles.data(), sizeof(int) * gripper.particles.size());
-    print.addMatrix(gripper.offsets_m);
-    print.add(gripper.max_force_N);
-  }
-  // A link's first pose places it without sweeping it there: only the change of `seen` says it came.
-  for (const FrameColliderTrack& link : inputs_.frame_colliders) print.add(link.seen);
-  return print.value();
-}
-
-int Simulation::sleepAfterFrames(const SceneOptions& options) {
-  return std::max(1, static_cast<int>(std::ceil(SceneOptions::kSleepAfter_s * options.frame_rate_hz)));
-}
-
-double Simulation::sleepAllowance_m(const SceneOptions& options) {
-  return options.sleep_speed_m_per_s * SceneOptions::kSleepAfter_s;
-}
-
-void Simulation::countCalmFrame(bool still_inputs, double step_m) {
-  const int asleep_from = sleepAfterFrames(options_);
-  bool calm = options_.sleep_speed_m_per_s > 0.0 && still_inputs;
-  if (calm) {
-    const Eigen::Matrix3Xd& anchor = memory_.calm_frames > 0 ? memory_.calm_anchor_m : frame_start_.positions_m;
-    calm = (state_.positions_m - anchor).colwise().norm().maxCoeff() <= sleepAllowance_m(options_);
-  }
-  if (calm && memory_.calm_frames >= asleep_from) {
-    calm = step_m <= memory_.calm_largest_step_m + options_.sleep_speed_m_per_s * options_.frameDuration_s();
-  }
-  if (!calm) {
-    memory_.forgetCalm();
-    return;
-  }
-  if (memory_.calm_frames == 0) memory_.calm_anchor_m = frame_start_.positions_m;
-  if (memory_.calm_frames >= asleep_from / 2 && memory_.calm_frames < asleep_from) {
-    memory_.calm_largest_step_m = std::max(memory_.calm_largest_step_m, step_m);
-  }
-  memory_.calm_frames = std::min(memory_.calm_frames + 1, asleep_from);
-}
-
-int Simulation::sleepCheckFrames(const SceneOptions& options) {
-  return std::max(1, static_cast<int>(std::ceil(SceneOptions::kSleepCheckPeriod_s * options.frame_rate_hz)));
-}
-
-bool Simulation::sleepsThrough(bool driven, std::uint64_t drive) const {
-  // By frame number, so that a restored run checks on the same frames.
-  const bool check_frame = (state_.frame + 1) % static_cast<std::uint64_t>(sleepCheckFrames(options_)) == 0;
-  return options_.sleep_speed_m_per_s > 0.0 && memory_.calm_frames >= sleepAfterFrames(options_) && !driven &&
-         drive == memory_.drive_fingerprint && !check_frame;
-}
-
-void Simulation::sleepThroughFrame(FrameReport* report) {
-  // The cloth stood still for sleepAfterFrames frames under the same inputs, with nothing moving it:
-  // no particle got further than sleepAllowance_m from where it was when they began, so this frame is not
-  // computed and only time goes on. The substeps `auto` remembers, the gripper wrenches and the energies
-  // stay those of the last computed frame, whose state this still is.
-  report->asleep = true;
-  report->substeps_used = 0;
-  report->max_strain = energy_cache_valid_ ? cached_strain_ : maxStructuralStrain();
-  state_.time_s += options_.frameDuration_s();
-  ++state_.frame;
-}
-
 bool Simulation::recover(const FrameEnvelope& envelope, FrameReport* report) {
   const std::string failing = integratorName(options_.integrator);
   std::ostringstream what;
@@ -667,6 +533,14 @@ bool Simulation::recover(const FrameEnvelope& envelope, FrameReport* report) {
   return true;
 }
 
+void Simulation::remakeIntegratorIfChanged(const SceneOptions& options) {
+  if (options.integrator != options_.integrator || options.solver.tolerance != options_.solver.tolerance ||
+      options.solver.max_iterations != options_.solver.max_iterations ||
+      options.solver.preconditioner != options_.solver.preconditioner) {
+    integrator_ = makeIntegrator(options.integrator, options.solver);
+  }
+}
+
 bool Simulation::retune(const SceneOptions& given, std::string* error) {
   const SceneOptions options = resolveMaterial(given);
   const std::string changed = materialConstantChanged(given, options);
@@ -674,7 +548,7 @@ bool Simulation::retune(const SceneOptions& given, std::string* error) {
     *error = changed;
     return false;
   }
-  if (!sameGrid(options, options_)) {
+  if (!sameClothGrid(options, options_)) {
     *error = "rows, cols, size, pose, pins and mass cannot change while running: load a scene instead";
     return false;
   }
@@ -687,11 +561,7 @@ bool Simulation::retune(const SceneOptions& given, std::string* error) {
     *error = inside;  // a recovery's reset would start it there
     return false;
   }
-  if (options.integrator != options_.integrator || options.solver.tolerance != options_.solver.tolerance ||
-      options.solver.max_iterations != options_.solver.max_iterations ||
-      options.solver.preconditioner != options_.solver.preconditioner) {
-    integrator_ = makeIntegrator(options.integrator, options.solver);
-  }
+  remakeIntegratorIfChanged(options);
   options_ = options;
   inputs_.frame_colliders.resize(options_.colliders.frames.size());  // new links are unseen until posed
   force_model_.refreshConstraints();  // the pins' swing and the spheres may have changed
@@ -753,203 +623,6 @@ Eigen::Matrix3Xf checkerColors(const Eigen::Matrix2Xd& uv) {
     colors.col(i) = ((square_u + square_v) % 2 == 0) ? light : dark;
   }
   return colors;
-}
-
-namespace {
-
-/// Pin hooks and travels are differences of points that the guard and the options bound: a particle let go
-/// within kDivergenceBound_m less a pin motion within kMaxCoordinate_m; a rest position (origin within
-/// kMaxCoordinate_m plus the cloth's sides) less a pin position. No valid run leaves this box (m).
-constexpr double kMaxHookComponent_m =
-    Simulation::kDivergenceBound_m + OptionLimits::kMaxCoordinate_m + 2.0 * OptionLimits::kMaxClothSide_m;
-
-/// A particle this fast crosses the guard's whole box within the shortest frame the options allow: no
-/// state the guard accepts carries on from there, so a snapshot with such a speed is refused (m/s).
-constexpr double kMaxSpeed_m_per_s = 2.0 * Simulation::kDivergenceBound_m * OptionLimits::kMaxFrameRateHz;
-
-/// Empty when every column of `values` (3 x expected_columns) is finite with each component within
-/// +-bound (the guard's box); else what is wrong, naming `what`.
-std::string checkColumns(const std::string& what, const Eigen::Matrix3Xd& values, Eigen::Index expected_columns,
-                         double bound) {
-  if (values.cols() != expected_columns) {
-    return what + " has " + std::to_string(values.cols()) + " entries, expected " + std::to_string(expected_columns);
-  }
-  for (Eigen::Index i = 0; i < values.cols(); ++i) {
-    if (!values.col(i).allFinite() || values.col(i).cwiseAbs().maxCoeff() > bound) {
-      return what + "[" + std::to_string(i) + "] = " + vectorText(values.col(i)) +
-             ": each component must be finite and within +-" + std::to_string(bound);
-    }
-  }
-  return "";
-}
-
-/// Empty when the state fits a grid of `particles` particles; else the first problem.
-std::string checkState(const ClothState& state, int particles) {
-  if (std::string problem = checkColumns("state positions", state.positions_m, particles,
-                                         Simulation::kDivergenceBound_m);
-      !problem.empty()) {
-    return problem;
-  }
-  if (std::string problem = checkColumns("state velocities", state.velocities_m_per_s, particles, kMaxSpeed_m_per_s);
-      !problem.empty()) {
-    return problem;
-  }
-  // Bounds the simulation itself keeps (advanceFrame stops there), so time still advances by a frame
-  // and the counter cannot wrap: a file with time 1e300 s and frame 2^64 - 1 froze both.
-  if (!std::isfinite(state.time_s) || state.time_s < 0.0 || state.time_s > OptionLimits::kMaxSimTime_s) {
-    std::ostringstream out;
-    out << "state time " << state.time_s << " s: must be in [0, " << OptionLimits::kMaxSimTime_s << "]";
-    return out.str();
-  }
-  if (state.frame > OptionLimits::kMaxFrame) {
-    return "state frame " + std::to_string(state.frame) + ": must be at most " + std::to_string(OptionLimits::kMaxFrame);
-  }
-  return "";
-}
-
-/// Empty when the inputs fit options (whose pins resolve to `pins`) on a grid of `particles`.
-std::string checkInputs(const ClothInputs& inputs, const std::vector<int>& pins, int particles) {
-  if (!inputs.wind_m_per_s.allFinite() || inputs.wind_m_per_s.norm() > OptionLimits::kMaxWindSpeed_m_per_s) {
-    return "wind " + vectorText(inputs.wind_m_per_s) + " m/s: must be finite and at most " +
-           std::to_string(OptionLimits::kMaxWindSpeed_m_per_s) + " m/s";
-  }
-  if (inputs.pins != pins) {
-    return "inputs pin " + std::to_string(inputs.pins.size()) + " particles that differ from the " +
-           std::to_string(pins.size()) + " the options' pins select";
-  }
-  const auto pin_count = static_cast<Eigen::Index>(pins.size());
-  if (std::string problem = checkColumns("pin hooks", inputs.pin_anchors_m, pin_count, kMaxHookComponent_m);
-      !problem.empty()) {
-    return problem;
-  }
-  if (std::string problem = checkColumns("pin travel", inputs.pin_travel_m, pin_count, kMaxHookComponent_m);
-      !problem.empty()) {
-    return problem;
-  }
-  if (inputs.grasps.size() > Simulation::kMaxGrasps) {
-    return std::to_string(inputs.grasps.size()) + " grasps: at most " + std::to_string(Simulation::kMaxGrasps);
-  }
-  for (std::size_t g = 0; g < inputs.grasps.size(); ++g) {
-    const Grasp& grasp = inputs.grasps[g];
-    const std::string name = "grasp " + std::to_string(grasp.id);
-    for (std::size_t other = 0; other < g; ++other) {
-      if (inputs.grasps[other].id == grasp.id) return name + " appears twice: ids must be unique";
-    }
-    if (grasp.particle < 0 || grasp.particle >= particles) {
-      return name + " holds particle " + std::to_string(grasp.particle) + ": must be in [0, " +
-             std::to_string(particles - 1) + "]";
-    }
-    if (!grasp.target_m.allFinite() || grasp.target_m.norm() > Simulation::kMaxGraspReach_m) {
-      return name + " target " + vectorText(grasp.target_m) + ": must be finite and within " +
-             std::to_string(Simulation::kMaxGraspReach_m) + " m of the origin";
-    }
-    if (!(grasp.stiffness_N_per_m >= 0.0 && grasp.stiffness_N_per_m <= OptionLimits::kMaxStiffnessN_per_m)) {
-      return name + " stiffness " + std::to_string(grasp.stiffness_N_per_m) + " N/m: must be in [0, " +
-             std::to_string(OptionLimits::kMaxStiffnessN_per_m) + "]";
-    }
-    if (!(grasp.damping_N_s_per_m >= 0.0 && grasp.damping_N_s_per_m <= OptionLimits::kMaxDampingN_s_per_m)) {
-      return name + " damping " + std::to_string(grasp.damping_N_s_per_m) + " N s/m: must be in [0, " +
-             std::to_string(OptionLimits::kMaxDampingN_s_per_m) + "]";
-    }
-    if (!grasp.extra_force_N.allFinite() || grasp.extra_force_N.norm() > Simulation::kMaxGraspForce_N) {
-      return name + " force " + vectorText(grasp.extra_force_N) + " N: must be finite and at most " +
-             std::to_string(Simulation::kMaxGraspForce_N) + " N";
-    }
-  }
-  return "";
-}
-
-}  // namespace
-
-SimulationSnapshot Simulation::snapshot() const {
-  return SimulationSnapshot{options_, state_, inputs_, memory_, last_substeps_};
-}
-
-bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error) {
-  // A state file holds a material, not the constants it gives: they are derived again here.
-  const SceneOptions options = resolveMaterial(snapshot.options);
-  if (!sameGrid(options, options_)) {
-    *error = "the snapshot's grid (rows, cols, size, pose, pins or mass) differs from this scene's (" +
-             std::to_string(options_.rows) + "x" + std::to_string(options_.cols) + ")";
-    return false;
-  }
-  const std::vector<std::string> problems = validateSceneOptions(options);
-  if (!problems.empty()) {
-    *error = "snapshot options: " + problems.front();
-    return false;
-  }
-  std::string problem = checkState(snapshot.state, grid_.particleCount());
-  if (problem.empty()) problem = checkInputs(snapshot.inputs, inputs_.pins, grid_.particleCount());
-  if (problem.empty() && snapshot.inputs.frame_colliders.size() != options.colliders.frames.size()) {
-    problem = "inputs pose " + std::to_string(snapshot.inputs.frame_colliders.size()) + " frame colliders, the options have " +
-              std::to_string(options.colliders.frames.size());
-  }
-  for (std::size_t c = 0; problem.empty() && c < snapshot.inputs.frame_colliders.size(); ++c) {
-    const PoseTrack& track = snapshot.inputs.frame_colliders[c].track;
-    for (const Pose* pose : {&track.start, &track.end}) {
-      if (!pose->position_m.allFinite() || pose->position_m.norm() > OptionLimits::kMaxCoordinate_m ||
-          !pose->orientation.coeffs().allFinite() || std::abs(pose->orientation.norm() - 1.0) > 1e-6 ||
-          !(track.duration_s > 0.0) || !std::isfinite(track.duration_s) || !std::isfinite(track.start_time_s)) {
-        problem = "frame collider " + std::to_string(c) + " track: poses must be finite with unit quaternions, the duration > 0";
-        break;
-      }
-    }
-  }
-  if (problem.empty()) {
-    problem = checkGrippers(snapshot.inputs.grippers, inputs_.pins, grid_.particleCount(), kMaxGrippers, kMaxGraspReach_m);
-  }
-  const GuardMemory& guard = snapshot.guard;
-  if (problem.empty() && (guard.auto_scale < 1 || guard.auto_scale > GuardMemory::kMaxScale ||
-                          (guard.auto_scale & (guard.auto_scale - 1)) != 0 || guard.consecutive_rollbacks < 0 ||
-                          guard.consecutive_rollbacks >= GuardMemory::kRollbacksBeforeRecovery ||
-                          !(guard.frame_motion_m_per_s >= 0.0) || guard.calm_frames < 0 ||
-                          guard.calm_frames > sleepAfterFrames(options))) {
-    problem = "guard memory: auto scale " + std::to_string(guard.auto_scale) + " (a power of two up to " +
-              std::to_string(GuardMemory::kMaxScale) + "), rollbacks in a row " +
-              std::to_string(guard.consecutive_rollbacks) + " (below " +
-              std::to_string(GuardMemory::kRollbacksBeforeRecovery) + "), last frame's motion " +
-              std::to_string(guard.frame_motion_m_per_s) + " m/s (at least 0), calm frames " +
-              std::to_string(guard.calm_frames) + " (0 to " + std::to_string(sleepAfterFrames(options)) + ")";
-  }
-  if (problem.empty()) {
-    // Calm frames are measured from their anchor: one position per particle while there are any, none
-    // else. A frame's step within the calm frames is at most twice the allowance (both ends within it).
-    const bool calm = guard.calm_frames > 0;
-    const Eigen::Index particles = static_cast<Eigen::Index>(options.rows) * options.cols;
-    problem = checkColumns("guard memory: the calm frames' anchor (one position per particle while there are calm frames, else none)",
-                           guard.calm_anchor_m, calm ? particles : 0, Simulation::kDivergenceBound_m);
-    const double most_step_m = calm ? 2.0 * sleepAllowance_m(options) : 0.0;
-    if (problem.empty() && !(guard.calm_largest_step_m >= 0.0 && guard.calm_largest_step_m <= most_step_m)) {
-      problem = "guard memory: the calm frames' largest step " + exactNumberText(guard.calm_largest_step_m, 6) +
-                " m: must be in [0, " + exactNumberText(most_step_m, 6) + "] (twice sleep_speed x " +
-                exactNumberText(SceneOptions::kSleepAfter_s, 6) + " s while there are calm frames, else 0)";
-    }
-  }
-  if (problem.empty()) problem = startsInsideCollider(options);  // a recovery's reset would start it there
-  if (problem.empty() && (snapshot.last_frame_substeps < 0 || snapshot.last_frame_substeps > OptionLimits::kMaxSubsteps)) {
-    problem = "last frame's substeps " + std::to_string(snapshot.last_frame_substeps) + " (0: not known, up to " +
-              std::to_string(OptionLimits::kMaxSubsteps) + ")";
-  }
-  if (!problem.empty()) {
-    *error = "snapshot " + problem;
-    return false;
-  }
-  if (options.integrator != options_.integrator || options.solver.tolerance != options_.solver.tolerance ||
-      options.solver.max_iterations != options_.solver.max_iterations ||
-      options.solver.preconditioner != options_.solver.preconditioner) {
-    integrator_ = makeIntegrator(options.integrator, options.solver);
-  }
-  options_ = options;
-  inputs_ = snapshot.inputs;
-  state_ = snapshot.state;
-  memory_ = snapshot.guard;
-  gripper_wrenches_.clear();
-  bound_stale_ = true;
-  energy_cache_valid_ = false;
-  // Which pins hang on hooks follows from the grasps just restored (as grab and release keep it).
-  force_model_.refreshConstraints();
-  last_substeps_ = snapshot.last_frame_substeps > 0 ? snapshot.last_frame_substeps : nextFrameSubsteps();
-  return true;
 }
 
 }  // namespace cloth_sim::core

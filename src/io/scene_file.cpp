@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <set>
 #include <sstream>
@@ -85,7 +86,16 @@ T readScalar(const YAML::Node& node, const char* expected, std::initializer_list
 }
 
 double readDouble(const YAML::Node& node) { return readScalar<double>(node, "a number", {"float", "int"}); }
-int readInt(const YAML::Node& node) { return readScalar<int>(node, "an integer", {"int"}); }
+int readInt(const YAML::Node& node) {
+  try {
+    return readScalar<int>(node, "an integer", {"int"});
+  } catch (const WrongType&) {
+    // An integer too large for an int (rows: 3000000000) is still an integer: say so, and leave the
+    // field's own range to the field (readCameras' seed) or to validateSceneOptions.
+    readScalar<long long>(node, "an integer", {"int"});
+    throw WrongType{"an integer no larger in size than " + std::to_string(std::numeric_limits<int>::max())};
+  }
+}
 bool readBool(const YAML::Node& node) { return readScalar<bool>(node, "true or false", {"bool"}); }
 std::string readString(const YAML::Node& node) { return readScalar<std::string>(node, "a string", {"str"}); }
 
@@ -258,8 +268,11 @@ std::vector<CameraOptions> readCameras(const YAML::Node& node) {
         if (f == "max_range") c.max_range_m = readDouble(v);
         if (f == "noise" && !parseDepthNoiseName(readString(v), &c.noise)) throw WrongType{"none or kinect"};
         if (f == "seed") {
-          const int seed = readInt(v);
-          if (seed < 0) throw WrongType{"an integer >= 0"};
+          // Read wide, so that 2^31 is refused with the seed's own range rather than an int's.
+          const long long seed = readScalar<long long>(v, "an integer", {"int"});
+          if (seed < 0 || seed > std::numeric_limits<int>::max()) {
+            throw WrongType{"an integer within [0, " + std::to_string(std::numeric_limits<int>::max()) + "]"};
+          }
           c.seed = static_cast<std::uint32_t>(seed);
         }
       });

@@ -1,5 +1,6 @@
 #include "cloth_sim/ros/cloth_node.h"
 
+#include "cloth_sim/core/constants.h"
 #include "cloth_sim/io/scene_file.h"
 #include "cloth_sim/io/state_file.h"
 #include "cloth_sim/io/texture.h"
@@ -12,7 +13,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <iomanip>
 #include <set>
 #include <sstream>
 
@@ -41,9 +41,7 @@ constexpr double kWarnThrottle_s = 5.0;
 constexpr const char* kDefaultScene = "drape";
 /// A mesh counts as due this fraction of a frame before its due time (timer ticks jitter).
 constexpr double kMeshEarlyFrames = 0.5;
-constexpr double kMillisecondsPerSecond = 1000.0;
-/// How often a service thread waiting for its ~step looks whether the node is shutting down.
-constexpr std::chrono::milliseconds kStepWaitPoll{100};
+using core::kMillisecondsPerSecond;
 
 }  // namespace
 
@@ -145,7 +143,19 @@ bool ClothNode::start(std::string* error) {
   // The mouse's commands join ~grasp's queue, so they are applied in order with the topic's.
   mouse_ = std::make_unique<MouseDrag>(pnh_.resolveName(Names::kMouseNamespace), [this](const cloth_sim::Grasp& grasp) {
     onGraspReceived(boost::make_shared<const cloth_sim::Grasp>(grasp));
-  }, [this](const Eigen::Vector3d& point_m) { return simulation_->nearestParticle(point_m); });
+  }, [this](const std_msgs::Header& header, const Eigen::Vector3d& point_m) {
+    geometry_msgs::PointStamped point;
+    point.header = header;
+    point.point = toPoint(point_m);
+    geometry_msgs::PointStamped in_frame;
+    std::string why;
+    if (!frame_inputs_.express(point, frame_id_, &in_frame, &why)) {
+      ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped a mouse-down in frame '%s': %s",
+                        header.frame_id.c_str(), why.c_str());
+      return -1;
+    }
+    return simulation_->nearestParticle(Eigen::Vector3d(in_frame.point.x, in_frame.point.y, in_frame.point.z));
+  });
   reset_srv_ = pnh_.advertiseService(Names::kResetService, &ClothNode::onReset, this);
   pause_srv_ = pnh_.advertiseService(Names::kPauseService, &ClothNode::onPause, this);
   // ~step waits for its frames on a thread of its own, so the spin thread stays free to run them in chunks
@@ -276,6 +286,7 @@ void ClothNode::install(std::unique_ptr<core::Simulation> simulation) {
   timer_.setPeriod(frame_period);
   last_report_ = core::FrameReport();
   asleep_ = false;
+  last_sphere_stamp_.reset();  // the new scene's spheres go out at the next publish
   reanchor();
   pushConfig();
 }
@@ -402,8 +413,14 @@ void ClothNode::publish(const ros::Time& stamp, bool with_state) {
   if (colliders_pub_.getNumSubscribers() > 0 && !simulation_->options().colliders.empty()) {
     colliders_pub_.publish(toColliderMarkers(*simulation_, frame_id_, stamp));
   }
-  const auto transforms = toSphereTransforms(*simulation_, frame_id_, stamp);
-  if (!transforms.empty()) tf_broadcaster_.sendTransform(transforms);
+  // Once per stamp: under /use_sim_time a tick with no new time (roscpp fires a late timer again when
+  // /clock leaps) sent the same stamp twice, and every tf listener, the node's own too, logged
+  // TF_REPEATED_DATA for each sphere.
+  if (last_sphere_stamp_ != stamp) {
+    const auto transforms = toSphereTransforms(*simulation_, frame_id_, stamp);
+    if (!transforms.empty()) tf_broadcaster_.sendTransform(transforms);
+    last_sphere_stamp_ = stamp;
+  }
   cameras_->publish(*simulation_, stamp);  // ~points and the cameras, each only while subscribed
   if (mouse_) mouse_->update(*simulation_, frame_id_, stamp);
 }
@@ -527,140 +544,6 @@ bool ClothNode::onPause(std_srvs::SetBool::Request& request, std_srvs::SetBool::
   return true;
 }
 
-/// Runs one chunk of a ~step job on the node's callback queue (the spin thread).
-class ClothNode::StepChunk : public ros::CallbackInterface {
- public:
-  StepChunk(ClothNode* node, std::shared_ptr<StepJob> job) : node_(node), job_(std::move(job)) {}
-  CallResult call() override {
-    node_->runStepChunk(job_);
-    return Success;
-  }
-
- private:
-  ClothNode* node_;
-  std::shared_ptr<StepJob> job_;
-};
-
-bool ClothNode::onStep(cloth_sim::Step::Request& request, cloth_sim::Step::Response& response) {
-  auto job = std::make_shared<StepJob>();
-  job->frames = request.frames;
-  queueStepChunk(job);
-  std::unique_lock<std::mutex> lock(step_mutex_);
-  while (!job->done) {
-    // Woken now and then to notice a shutdown: the spin thread stops running chunks then.
-    if (!ros::ok() || step_stopping_) {
-      response.success = false;
-      response.message = "the node is shutting down";
-      return true;
-    }
-    step_done_.wait_for(lock, kStepWaitPoll);
-  }
-  response = job->response;
-  return true;
-}
-
-void ClothNode::queueStepChunk(const std::shared_ptr<StepJob>& job) {
-  pnh_.getCallbackQueue()->addCallback(boost::make_shared<StepChunk>(this, job),
-                                       reinterpret_cast<std::uint64_t>(this));
-}
-
-std::string ClothNode::refuseStep(const StepJob& job) const {
-  if (!paused_) return "not paused: call ~pause with data=true first";
-  // The step service's one thread takes its calls one after another, each waiting for its answer, so a
-  // job is still under way here only if its call stopped waiting (the node shutting down).
-  if (active_step_) return "another ~step is in progress";
-  if (job.frames == 0 || job.frames > kMaxStepFrames) {
-    return "frames = " + std::to_string(job.frames) + ": must be in [1, " + std::to_string(kMaxStepFrames) + "]";
-  }
-  return stepOverBudget(job.frames);
-}
-
-std::string ClothNode::stepOverBudget(std::uint64_t frames) const {
-  // The last frame's cost is the estimate (none yet: the call's first frame gives one, runStepChunk).
-  const double frame_cost_s = step_cost_ms_ / kMillisecondsPerSecond;
-  if (frame_cost_s <= 0.0) return "";
-  const double most_frames = std::max(1.0, std::floor(kMaxStepWork_s / frame_cost_s));
-  if (static_cast<double>(frames) <= most_frames) return "";
-  std::ostringstream reason;
-  reason << std::fixed << std::setprecision(1) << "frames = " << frames << " would take about "
-         << std::lround(static_cast<double>(frames) * frame_cost_s) << " s at " << step_cost_ms_
-         << " ms per frame (the last frame's cost); one call may take at most " << kMaxStepWork_s
-         << " s: ask for at most " << static_cast<std::uint64_t>(most_frames) << " frames per call";
-  return reason.str();
-}
-
-void ClothNode::runStepChunk(const std::shared_ptr<StepJob>& job) {
-  if (!job->started) {
-    const std::string refusal = refuseStep(*job);
-    if (!refusal.empty()) {
-      answerStep(*job, false, refusal);
-      return;
-    }
-    job->started = true;
-    job->unestimated = step_cost_ms_ <= 0.0;
-    job->start_time = std::chrono::steady_clock::now();
-    active_step_ = job;
-  }
-  if (active_step_ != job) return;  // cancelled (and answered) while this chunk waited in the queue
-  const auto overrun = std::chrono::duration<double>(kMaxStepWork_s * kStepOverrunFactor);
-  const auto chunk_end = std::chrono::steady_clock::now() + std::chrono::duration<double>(kStepChunk_s);
-  while (job->frames_done < job->frames) {
-    const auto now = std::chrono::steady_clock::now();
-    if (!ros::ok() || shutdownSignalled()) {
-      cancelStep("the node is shutting down" + (shutdownSignalled() ? " (" + shutdownSignalName() + ")" : std::string()));
-      return;
-    }
-    if (now - job->start_time > overrun) {
-      std::ostringstream reason;
-      reason << "the call ran past " << kMaxStepWork_s * kStepOverrunFactor << " s, " << kStepOverrunFactor
-             << " times the " << kMaxStepWork_s << " s a call may be expected to take";
-      cancelStep(reason.str());
-      return;
-    }
-    if (now >= chunk_end) {
-      queueStepChunk(job);  // the rest after the callbacks queued meanwhile
-      return;
-    }
-    if (!advanceFrames(1)) {
-      finishStep(false, "stopped after " + std::to_string(job->frames_done) + " frames: " + last_report_.reason);
-      return;
-    }
-    ++job->frames_done;
-    if (job->unestimated) {
-      // After a scene change the call came with no cost to estimate from: its first frame's is checked
-      // against the frames left, as the call itself would have been.
-      job->unestimated = false;
-      const std::string over = stepOverBudget(job->frames - job->frames_done);
-      if (!over.empty()) {
-        finishStep(false, "stopped after 1 frames (the first since the scene changed, so the call could not be "
-                          "estimated before): the rest, " + over);
-        return;
-      }
-    }
-  }
-  finishStep(true, "advanced " + std::to_string(job->frames) + " frames");
-}
-
-void ClothNode::answerStep(StepJob& job, bool success, const std::string& message) {
-  std::lock_guard<std::mutex> lock(step_mutex_);
-  job.response.success = success;
-  job.response.message = message;
-  job.response.sim_time = simulation_->state().time_s;
-  job.done = true;
-  step_done_.notify_all();
-}
-
-void ClothNode::finishStep(bool success, const std::string& message) {
-  if (ros::ok()) publish(ros::Time::now());
-  answerStep(*active_step_, success, message);
-  active_step_.reset();
-}
-
-void ClothNode::cancelStep(const std::string& reason) {
-  if (!active_step_) return;
-  finishStep(false, "stopped after " + std::to_string(active_step_->frames_done) + " frames: " + reason);
-}
-
 bool ClothNode::onLoadScene(cloth_sim::LoadScene::Request& request, cloth_sim::LoadScene::Response& response) {
   // All or nothing: the new scene is read, validated, built and textured completely before it replaces
   // the running one; any failure answers with the reason and the old scene carries on.
@@ -684,136 +567,6 @@ bool ClothNode::onLoadScene(cloth_sim::LoadScene::Request& request, cloth_sim::L
   response.message = message.str();
   ROS_INFO("cloth_node: %s", response.message.c_str());
   return true;
-}
-
-void ClothNode::onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t) {
-  // The .cfg gives no ranges, so dynamic_reconfigure's server clamps nothing (it clamped -5 to 0 and inf
-  // to 1e4 silently, and let NaN through): every value arrives as sent and is checked here, and a
-  // refused change keeps the whole previous configuration.
-  const std::string invalid = invalidReconfigureValue(config);
-  if (!invalid.empty()) {
-    ROS_WARN("cloth_node: reconfigure refused: %s; the previous values stay", invalid.c_str());
-    fillConfig(&config);
-    reconfigure_wind_ = Eigen::Vector3d(config.wind_x, config.wind_y, config.wind_z);
-    return;
-  }
-  core::SceneOptions options = simulation_->options();
-  const double stiffness[core::kSpringKindCount] = {config.structural_stiffness, config.shear_stiffness,
-                                              config.bend_stiffness};
-  const double damping[core::kSpringKindCount] = {config.structural_damping, config.shear_damping, config.bend_damping};
-  for (int k = 0; k < core::kSpringKindCount; ++k) {
-    options.springs[k].stiffness_N_per_m = stiffness[k];
-    options.springs[k].damping_N_s_per_m = damping[k];
-  }
-  options.air_damping_N_s_per_m = config.air_damping;
-  // The wind sliders count only when they moved: comparing them with the wind in force would undo every
-  // wind that came in on ~wind (the sliders do not follow the topic) at the next reconfigure of anything.
-  const Eigen::Vector3d wind(config.wind_x, config.wind_y, config.wind_z);
-  std::string error;
-  if (!core::parseIntegratorName(config.integrator, &options.integrator)) {
-    error = "integrator '" + config.integrator + "' is unknown";
-  }
-  options.substeps = config.substeps;
-  options.self_collision.enabled = config.self_collision;
-  options.self_collision.thickness_m = config.self_collision_thickness;
-  options.self_collision.friction = config.self_collision_friction;
-  options.solver.tolerance = config.solver_tolerance;
-  options.solver.max_iterations = config.solver_max_iterations;
-  if (error.empty() && !core::parsePreconditionerName(config.solver_preconditioner, &options.solver.preconditioner)) {
-    error = "solver_preconditioner = '" + config.solver_preconditioner + "': must be one of " +
-            core::preconditionerNameList();
-  }
-  if (!error.empty() || !simulation_->retune(options, &error)) {
-    ROS_WARN("cloth_node: reconfigure refused: %s; the previous values stay", error.c_str());
-  } else if (wind != reconfigure_wind_) {
-    simulation_->setWindVelocity(wind);  // the wind is an input, not an option: retune leaves it alone
-  }
-  // Answer and publish what is in force (a refused change is not; a ~wind is), so the sliders follow.
-  fillConfig(&config);
-  reconfigure_wind_ = Eigen::Vector3d(config.wind_x, config.wind_y, config.wind_z);
-}
-
-std::string ClothNode::invalidReconfigureValue(const cloth_sim::ClothConfig& config) const {
-  const std::pair<const char*, double> numbers[] = {
-      {"structural_stiffness", config.structural_stiffness}, {"structural_damping", config.structural_damping},
-      {"shear_stiffness", config.shear_stiffness},           {"shear_damping", config.shear_damping},
-      {"bend_stiffness", config.bend_stiffness},             {"bend_damping", config.bend_damping},
-      {"air_damping", config.air_damping},                   {"wind_x", config.wind_x},
-      {"wind_y", config.wind_y},                             {"wind_z", config.wind_z},
-      {"solver_tolerance", config.solver_tolerance},         {"self_collision_thickness", config.self_collision_thickness},
-      {"self_collision_friction", config.self_collision_friction}};
-  for (const auto& [field, value] : numbers) {
-    if (!std::isfinite(value)) return std::string(field) + " = " + std::to_string(value) + ": must be finite";
-  }
-  // The sliders are the wind's components; its magnitude is what ~wind and the scene files bound.
-  const Eigen::Vector3d wind(config.wind_x, config.wind_y, config.wind_z);
-  if (wind != reconfigure_wind_ && wind.norm() > core::OptionLimits::kMaxWindSpeed_m_per_s) {
-    std::ostringstream out;
-    out << "wind_x, wind_y, wind_z = (" << wind.x() << ", " << wind.y() << ", " << wind.z() << "): magnitude "
-        << wind.norm() << " m/s must be at most " << core::OptionLimits::kMaxWindSpeed_m_per_s << " m/s";
-    return out.str();
-  }
-  return "";
-}
-
-void ClothNode::publishReconfigureRanges() {
-  // The server clamps to the .cfg's ranges, which are left open; the ranges shown to rqt_reconfigure and
-  // the clients (parameter_descriptions) are set here from OptionLimits, the ones validation enforces.
-  using L = core::OptionLimits;
-  cloth_sim::ClothConfig low = cloth_sim::ClothConfig::__getMin__();
-  cloth_sim::ClothConfig high = cloth_sim::ClothConfig::__getMax__();
-  for (double* field : {&low.structural_stiffness, &low.shear_stiffness, &low.bend_stiffness, &low.structural_damping,
-                        &low.shear_damping, &low.bend_damping, &low.air_damping}) {
-    *field = 0.0;
-  }
-  high.structural_stiffness = high.shear_stiffness = high.bend_stiffness = L::kMaxStiffnessN_per_m;
-  high.structural_damping = high.shear_damping = high.bend_damping = high.air_damping = L::kMaxDampingN_s_per_m;
-  low.wind_x = low.wind_y = low.wind_z = -L::kMaxWindSpeed_m_per_s;
-  high.wind_x = high.wind_y = high.wind_z = L::kMaxWindSpeed_m_per_s;
-  low.substeps = core::SceneOptions::kAutoSubsteps;  // 0: auto, as the scenes use it
-  high.substeps = L::kMaxSubsteps;
-  low.solver_tolerance = L::kMinSolverTolerance;
-  high.solver_tolerance = 1.0;
-  low.self_collision_thickness = 0.0;
-  high.self_collision_thickness = L::kMaxSelfCollisionThickness_m;
-  low.self_collision_friction = 0.0;
-  high.self_collision_friction = L::kMaxFriction;
-  low.solver_max_iterations = 1;
-  high.solver_max_iterations = L::kMaxSolverIterations;
-  reconfigure_->setConfigMin(low);
-  reconfigure_->setConfigMax(high);
-}
-
-void ClothNode::fillConfig(cloth_sim::ClothConfig* config) const {
-  const core::SceneOptions& o = simulation_->options();
-  cloth_sim::ClothConfig& c = *config;
-  c.structural_stiffness = o.springs[0].stiffness_N_per_m;
-  c.structural_damping = o.springs[0].damping_N_s_per_m;
-  c.shear_stiffness = o.springs[1].stiffness_N_per_m;
-  c.shear_damping = o.springs[1].damping_N_s_per_m;
-  c.bend_stiffness = o.springs[2].stiffness_N_per_m;
-  c.bend_damping = o.springs[2].damping_N_s_per_m;
-  c.air_damping = o.air_damping_N_s_per_m;
-  const Eigen::Vector3d& wind = simulation_->inputs().wind_m_per_s;
-  c.wind_x = wind.x();
-  c.wind_y = wind.y();
-  c.wind_z = wind.z();
-  c.integrator = core::integratorName(o.integrator);
-  c.substeps = o.substeps;
-  c.solver_tolerance = o.solver.tolerance;
-  c.solver_max_iterations = o.solver.max_iterations;
-  c.solver_preconditioner = core::preconditionerName(o.solver.preconditioner);
-  c.self_collision = o.self_collision.enabled;
-  c.self_collision_thickness = o.self_collision.thickness_m;
-  c.self_collision_friction = o.self_collision.friction;
-}
-
-void ClothNode::pushConfig() {
-  if (!reconfigure_) return;
-  cloth_sim::ClothConfig config;
-  fillConfig(&config);
-  reconfigure_wind_ = Eigen::Vector3d(config.wind_x, config.wind_y, config.wind_z);
-  reconfigure_->updateConfig(config);
 }
 
 void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
@@ -939,6 +692,7 @@ bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::L
   timer_.setPeriod(ros::Duration(simulation_->options().frameDuration_s()));
   last_report_ = core::FrameReport();
   asleep_ = false;
+  last_sphere_stamp_.reset();  // the loaded spheres go out with the state, whatever the clock reads
   reanchor();  // the loaded frame is due now: the run continues from here at the frame rate
   pushConfig();
   publish(ros::Time::now());

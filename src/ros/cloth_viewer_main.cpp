@@ -92,16 +92,21 @@ class ClothViewer {
     // Half the states' own period early counts as on time, as the node does with its frames (their
     // stamps jitter by tens of microseconds).
     const double early_s = state_period_s > 0.0 ? kEarlyStatePeriods * state_period_s : 0.0;
-    if (!mesh_schedule_.due(stamp_s, early_s)) return;
+    // Converted before it is scheduled: a state that cannot be drawn must not take a mesh's turn (it did,
+    // and the well-formed state after it then waited a whole period).
     std::string error;
-    if (!cloth_sim::fromStateMessage(*message, cloth_sim::core::OptionLimits::kMaxGridSide, &positions_m_, &error)) {
+    if (!cloth_sim::fromStateMessage(*message, cloth_sim::core::OptionLimits::kMaxGridSide, &positions_m_, &active_,
+                                     &error)) {
       ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_viewer: dropped a ClothState: %s", error.c_str());
       return;
     }
-    if (grid_.rows != static_cast<int>(message->rows) || grid_.cols != static_cast<int>(message->cols)) {
+    if (!mesh_schedule_.due(stamp_s, early_s)) return;
+    // The particles outside an outline are left out of the mesh, as the node's own ~mesh does.
+    if (grid_.rows != static_cast<int>(message->rows) || grid_.cols != static_cast<int>(message->cols) ||
+        grid_.active != active_) {
       grid_ = cloth_sim::core::buildClothGrid(static_cast<int>(message->rows), static_cast<int>(message->cols),
                                               kUnitSide_m, kUnitSide_m, Eigen::Vector3d::Zero(),
-                                              Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY());
+                                              Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), active_);
       colors_ = cloth_sim::core::checkerColors(grid_.uv);
     }
     mesh_pub_.publish(cloth_sim::toMeshMarker(grid_, positions_m_, colors_, message->header.frame_id, stamp));
@@ -116,6 +121,7 @@ class ClothViewer {
   cloth_sim::core::ClothGrid grid_;  ///< topology of the last grid size seen
   Eigen::Matrix3Xf colors_;
   Eigen::Matrix3Xd positions_m_;
+  std::vector<std::uint8_t> active_;  ///< the last state's particles that are cloth (empty: all)
 };
 
 }  // namespace

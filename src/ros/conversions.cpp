@@ -28,8 +28,6 @@ Xyz toXyz(const Eigen::Vector3d& v) {
   return out;
 }
 
-geometry_msgs::Point toPoint(const Eigen::Vector3d& p) { return toXyz<geometry_msgs::Point>(p); }
-
 std_msgs::ColorRGBA toColor(const Eigen::Vector3f& rgb) {
   std_msgs::ColorRGBA color;
   color.r = rgb.x();
@@ -166,6 +164,12 @@ visualization_msgs::Marker toMeshMarker(const core::ClothGrid& grid, const Eigen
 
 bool fromStateMessage(const cloth_sim::ClothState& message, int max_side, Eigen::Matrix3Xd* positions_m,
                       std::string* error) {
+  std::vector<std::uint8_t> active;
+  return fromStateMessage(message, max_side, positions_m, &active, error);
+}
+
+bool fromStateMessage(const cloth_sim::ClothState& message, int max_side, Eigen::Matrix3Xd* positions_m,
+                      std::vector<std::uint8_t>* active, std::string* error) {
   // Compared as signed 64-bit: a max_side below 2 must refuse every grid, not wrap to 4 billion.
   const auto side_ok = [max_side](std::uint32_t side) {
     return side >= 2 && static_cast<std::int64_t>(side) <= max_side;
@@ -190,6 +194,17 @@ bool fromStateMessage(const cloth_sim::ClothState& message, int max_side, Eigen:
     *error = "a position is not finite";
     return false;
   }
+  if (!message.active.empty() && message.active.size() != count) {
+    *error = std::to_string(message.active.size()) + " active flags for " + std::to_string(count) + " particles";
+    return false;
+  }
+  const auto flag = std::find_if(message.active.begin(), message.active.end(), [](std::uint8_t a) { return a > 1; });
+  if (flag != message.active.end()) {
+    *error = "active[" + std::to_string(flag - message.active.begin()) + "] = " + std::to_string(*flag) +
+             ": must be 0 or 1";
+    return false;
+  }
+  *active = message.active;
   return true;
 }
 
@@ -210,6 +225,7 @@ cloth_sim::ClothState toStateMessage(const core::Simulation& simulation, const s
   message.frame = state.frame;
   message.integrator = core::integratorName(simulation.options().integrator);
   message.substeps = simulation.lastFrameSubsteps();
+  message.active = simulation.grid().active;  // empty without an outline
   const core::EnergyReport energy = simulation.energies();
   message.kinetic_energy = energy.kinetic_J;
   message.potential_energy = energy.potential_J;
@@ -217,6 +233,8 @@ cloth_sim::ClothState toStateMessage(const core::Simulation& simulation, const s
 }
 
 geometry_msgs::Vector3 toVector3(const Eigen::Vector3d& v) { return toXyz<geometry_msgs::Vector3>(v); }
+
+geometry_msgs::Point toPoint(const Eigen::Vector3d& p) { return toXyz<geometry_msgs::Point>(p); }
 
 geometry_msgs::TransformStamped identityTransform(const std::string& parent_frame, const std::string& child_frame,
                                                   const ros::Time& stamp) {

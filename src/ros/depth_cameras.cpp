@@ -1,5 +1,6 @@
 #include "cloth_sim/ros/depth_cameras.h"
 
+#include "cloth_sim/core/constants.h"
 #include "cloth_sim/ros/sensor_conversions.h"
 
 #include <sensor_msgs/CameraInfo.h>
@@ -20,7 +21,7 @@ constexpr std::uint32_t kQueueSize = 2;
 /// An image counts as due this fraction of a simulated frame early (the frame timer jitters), so a
 /// camera slower than the frame rate keeps its rate on average instead of slipping a tick each time.
 constexpr double kDueTolerance_frames = 0.5;
-constexpr double kMillisecondsPerSecond = 1000.0;
+using core::kMillisecondsPerSecond;
 
 bool sameCamera(const core::CameraOptions& a, const core::CameraOptions& b) {
   return a.name == b.name && a.frame == b.frame && a.width == b.width && a.height == b.height && a.fx_px == b.fx_px &&

@@ -1,11 +1,13 @@
 #include "cloth_sim/ros/frame_budget.h"
 
+#include "cloth_sim/core/constants.h"
+
 #include <cstdio>
 
 namespace cloth_sim {
 
 namespace {
-constexpr double kMillisecondsPerSecond = 1000.0;
+using core::kMillisecondsPerSecond;
 constexpr std::size_t kMessageLength = 160;
 }  // namespace
 

@@ -61,11 +61,16 @@ void MouseDrag::onFeedback(const visualization_msgs::InteractiveMarkerFeedbackCo
   const Eigen::Vector3d marker_m = toEigen(feedback->pose.position);
   if (feedback->event_type == Feedback::MOUSE_DOWN) {
     if (!feedback->mouse_point_valid) return;  // clicked beside the cloth: nothing to pick
-    grab_point_m_ = toEigen(feedback->mouse_point);
+    const Eigen::Vector3d clicked_m = toEigen(feedback->mouse_point);
+    const int particle = pick_(feedback->header, clicked_m);
+    // No particle where tf cannot place the click (the picker says why): no drag begins, so its updates
+    // grab nothing either (a grab with particle -1 would take whatever lies nearest a later target).
+    if (particle < 0) return;
+    particle_ = particle;
+    grab_point_m_ = clicked_m;
     grab_frame_ = feedback->header.frame_id;
     marker_at_grab_m_ = marker_m;
     dragging_ = true;
-    particle_ = pick_(grab_point_m_);
     cloth_sim::Grasp grab = graspMessage(feedback->header, cloth_sim::Grasp::GRAB);
     grab.target = feedback->mouse_point;
     grasp_(grab);

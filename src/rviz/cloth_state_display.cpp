@@ -16,6 +16,7 @@
 #include <rviz/properties/color_property.h>
 #include <rviz/properties/float_property.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -70,6 +71,7 @@ void ClothStateDisplay::reset() {
   mesh_->clear();
   mesh_built_ = false;
   rows_ = cols_ = 0;
+  active_.clear();
 }
 
 void ClothStateDisplay::updateAppearance() {
@@ -127,6 +129,15 @@ void ClothStateDisplay::draw(const cloth_sim::ClothState& message) {
     return;
   }
   const std::size_t count = message.positions.size();
+  // The same flags cloth_viewer accepts (fromStateMessage): none, or one 0 or 1 per particle.
+  const bool flags_ok = message.active.empty() ||
+                        (message.active.size() == count &&
+                         std::all_of(message.active.begin(), message.active.end(), [](std::uint8_t a) { return a <= 1; }));
+  if (!flags_ok) {
+    setStatus(rviz::StatusProperty::Error, "Message",
+              QString("%1 active flags for %2 particles, each 0 or 1: not drawn").arg(message.active.size()).arg(count));
+    return;
+  }
   std::vector<Eigen::Vector3f> positions(count);
   for (std::size_t i = 0; i < count; ++i) {
     const geometry_msgs::Point& p = message.positions[i];
@@ -150,30 +161,32 @@ void ClothStateDisplay::draw(const cloth_sim::ClothState& message) {
   scene_node_->setPosition(position);
   scene_node_->setOrientation(orientation);
 
-  if (static_cast<int>(rows) != rows_ || static_cast<int>(cols) != cols_) {
+  // A particle outside the scene's outline (ClothState::active) is not cloth: frozen where it started, it
+  // is in no triangle and no normal.
+  const auto is_cloth = [&](std::size_t i) { return active_.empty() || active_[i] != 0; };
+  if (static_cast<int>(rows) != rows_ || static_cast<int>(cols) != cols_ || message.active != active_) {
     rows_ = static_cast<int>(rows);
     cols_ = static_cast<int>(cols);
+    active_ = message.active;
     computeColours(rows_, cols_);
-    // Two triangles per quad, counter-clockwise seen from the side the normals point to.
-    indices_.clear();
-    indices_.reserve(static_cast<std::size_t>(rows_ - 1) * (cols_ - 1) * 6);
-    for (int r = 0; r + 1 < rows_; ++r) {
-      for (int c = 0; c + 1 < cols_; ++c) {
-        const std::uint32_t a = static_cast<std::uint32_t>(r * cols_ + c);
-        const std::uint32_t b = a + 1;
-        const std::uint32_t d = a + static_cast<std::uint32_t>(cols_);
-        const std::uint32_t e = d + 1;
-        indices_.insert(indices_.end(), {a, b, d, b, e, d});
-      }
-    }
+    // The core grid's triangles, as the node's ~mesh and cloth_viewer draw them (two per quad, split
+    // along the same diagonal, counter-clockwise seen from the side the normals point to): with an
+    // outline, a quad that loses a corner keeps the same half here as there.
+    const core::ClothGrid grid = core::buildClothGrid(rows_, cols_, kUnitSide_m, kUnitSide_m, Eigen::Vector3d::Zero(),
+                                                      Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitY(), active_);
+    indices_.assign(grid.triangles.begin(), grid.triangles.end());
     mesh_built_ = false;
   }
-  // Per-particle normals from central differences along the grid (one-sided at the edges): the cross
-  // product of the column and row directions, the same orientation as the triangles above.
+  // Per-particle normals from central differences along the grid (one-sided at the edges, and where a
+  // neighbour is not cloth): the cross product of the column and row directions, the same orientation as
+  // the triangles above.
   std::vector<Eigen::Vector3f> normals(count);
   for (int r = 0; r < rows_; ++r) {
     for (int c = 0; c < cols_; ++c) {
-      const auto at = [&](int rr, int cc) { return positions[static_cast<std::size_t>(rr * cols_ + cc)]; };
+      const auto at = [&](int rr, int cc) {
+        const std::size_t i = static_cast<std::size_t>(rr * cols_ + cc);
+        return positions[is_cloth(i) ? i : static_cast<std::size_t>(r * cols_ + c)];
+      };
       const Eigen::Vector3f along_cols = at(r, std::min(c + 1, cols_ - 1)) - at(r, std::max(c - 1, 0));
       const Eigen::Vector3f along_rows = at(std::min(r + 1, rows_ - 1), c) - at(std::max(r - 1, 0), c);
       const Eigen::Vector3f normal = along_cols.cross(along_rows);

@@ -64,6 +64,7 @@ class ClothStateDisplay : public rviz::MessageFilterDisplay<cloth_sim::ClothStat
   int cols_ = 0;
   bool mesh_built_ = false;  ///< the ManualObject's section exists for rows_ x cols_
   std::vector<Ogre::ColourValue> colours_;
+  std::vector<std::uint8_t> active_;    ///< the particles that are cloth (ClothState::active; empty: all)
   std::vector<std::uint32_t> indices_;  ///< front-face triangles, counter-clockwise seen along +normal
 };
 

@@ -8,6 +8,7 @@
 #include "bench_common.h"
 #include "span_run.h"
 
+#include "cloth_sim/core/constants.h"
 #include "cloth_sim/core/integrators.h"
 #include "cloth_sim/core/options.h"
 
@@ -24,7 +25,7 @@ enum class Mode { kAccuracy, kSpatial, kStabilityMap, kTerms, kSolverSweep };
 /// A setting is timed again (the simulation re-run) until its runs add up to ToolOptions::min_timing_s of CPU, at
 /// most this many times; the cheapest run is the cost (the others met other processes on the machine).
 constexpr int kMaxTimingRuns = 5;
-constexpr double kMsPerS = 1e3;
+using core::kMillisecondsPerSecond;
 
 struct GridSize {
   int rows = 0;

@@ -2,6 +2,8 @@
 
 #include "bench_stats.h"
 
+#include "cloth_sim/core/constants.h"
+
 #include <BulletCollision/BroadphaseCollision/btDbvtBroadphase.h>
 #include <BulletDynamics/ConstraintSolver/btSequentialImpulseConstraintSolver.h>
 #include <BulletSoftBody/btSoftBody.h>
@@ -31,7 +33,7 @@ constexpr double kTopEdgeZ_m = 1.5;
 constexpr int kMaxParticlesPerSide = 4096;
 /// Bending links join nodes this many apart along a row or a column (our "bend" springs).
 constexpr int kBendingSpan = 2;
-constexpr double kMsPerS = 1e3;
+using core::kMillisecondsPerSecond;
 
 void validate(const BulletClothSetup& s) {
   auto require = [](bool ok, const std::string& what) {
@@ -196,7 +198,7 @@ BulletClothResult runBulletCloth(const BulletClothSetup& setup) {
     const auto start = std::chrono::steady_clock::now();
     bullet.world->stepSimulation(frame_s, setup.substeps, substep_s);
     const auto stop = std::chrono::steady_clock::now();
-    frame_ms.push_back(std::chrono::duration<double>(stop - start).count() * kMsPerS);
+    frame_ms.push_back(std::chrono::duration<double>(stop - start).count() * kMillisecondsPerSecond);
     // Bullet stops simulating a body whose bounding box passes 1e6 m (DISABLE_SIMULATION): its nodes freeze and
     // later steps cost nothing, so that counts as a blow-up too.
     if (!allNodesFinite(cloth) || cloth.getActivationState() == DISABLE_SIMULATION) {

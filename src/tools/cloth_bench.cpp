@@ -83,7 +83,7 @@ constexpr int kMinThroughputCalls = 10;
 /// Any coordinate beyond this counts as not finite: far beyond every scene, far below overflow.
 constexpr double kFiniteBound_m = 1e300;
 
-constexpr double kMsPerS = 1e3;
+using core::kMillisecondsPerSecond;
 /// Significant digits of every number in the JSON line: timings are not more precise than this.
 constexpr int kJsonDigits = 6;
 
@@ -303,7 +303,7 @@ struct BenchResult {
 };
 
 double millisecondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count() * kMsPerS;
+  return std::chrono::duration<double>(Clock::now() - start).count() * kMillisecondsPerSecond;
 }
 
 /// Springs evaluated per second by one force evaluation at the current state (the kernel the integrators spend
@@ -567,7 +567,7 @@ class JsonLine {
 };
 
 std::string toJson(const BenchOptions& options, const core::SceneOptions& scene, const BenchResult& r) {
-  const double frame_ms = scene.frameDuration_s() * kMsPerS;
+  const double frame_ms = scene.frameDuration_s() * kMillisecondsPerSecond;
   const std::optional<double> realtime_factor =
       r.ms_per_frame && *r.ms_per_frame > 0 ? std::optional<double>(frame_ms / *r.ms_per_frame) : std::nullopt;
   JsonLine json;

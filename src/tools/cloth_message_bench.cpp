@@ -7,6 +7,7 @@
 // (src/ros/conversions.cpp, as cloth_node does) and serialise it (ros::serialization, as roscpp does once
 // per publish when a subscriber is connected). Prints a markdown table (median over --repeats, ms) and
 // the serialised sizes; doc/BENCHMARKS.md quotes it.
+#include "cloth_sim/core/constants.h"
 #include "cloth_sim/core/options.h"
 #include "cloth_sim/core/simulation.h"
 #include "cloth_sim/io/scene_file.h"
@@ -26,7 +27,7 @@
 namespace {
 
 constexpr int kDefaultRepeats = 50;
-constexpr double kMillisecondsPerSecond = 1000.0;
+using cloth_sim::core::kMillisecondsPerSecond;
 constexpr double kBytesPerMebibyte = 1024.0 * 1024.0;
 constexpr const char* kDefaultScene = "hanging";
 constexpr const char* kFrameId = "world";

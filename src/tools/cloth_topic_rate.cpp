@@ -16,6 +16,8 @@
 // --queue is the subscriber's queue: 1 (the default) counts what a subscriber that only wants the newest
 // message gets; cloth_node sends the frames a late tick caught up on back to back (up to 6), so a
 // subscriber that wants every frame, and this tool counting them, needs a queue that deep.
+#include "cloth_sim/core/constants.h"
+
 #include <ros/ros.h>
 #include <topic_tools/shape_shifter.h>
 
@@ -39,7 +41,7 @@ constexpr double kDefaultWait_s = 30.0;
 constexpr double kDefaultSkip_s = 1.0;
 constexpr double kDefaultQueue = 1.0;
 constexpr double kMaxQueue = 1000.0;
-constexpr double kMillisecondsPerSecond = 1000.0;
+using cloth_sim::core::kMillisecondsPerSecond;
 constexpr double kPollPeriod_s = 0.01;
 /// A std_msgs/Header's serialised start: uint32 seq, then the stamp as uint32 seconds and nanoseconds.
 constexpr std::size_t kStampOffset = 4;

@@ -79,7 +79,7 @@ SettingResult runSetting(const Setting& setting, int frames, const Trajectory& r
     total_cpu_s += cpu_s;
   }
   const double simulated_s = result.run.frames_run * setting.scene.frameDuration_s();
-  result.cost_ms_per_s = best_cpu_s * kMsPerS / simulated_s;
+  result.cost_ms_per_s = best_cpu_s * kMillisecondsPerSecond / simulated_s;
   return result;
 }
 

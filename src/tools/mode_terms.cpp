@@ -66,7 +66,7 @@ double msPerFrame(const core::SceneOptions& scene, int frames, double min_timing
     best_s = std::min(best_s, cpu_s);
     total_s += cpu_s;
   }
-  return best_s * kMsPerS / std::max(1, first->frames_run);
+  return best_s * kMillisecondsPerSecond / std::max(1, first->frames_run);
 }
 
 }  // namespace

@@ -1,5 +1,7 @@
 #include "solver_sweep.h"
 
+#include "cloth_sim/core/constants.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -7,7 +9,7 @@ namespace cloth_sim::bench {
 
 namespace {
 
-constexpr double kMsPerS = 1e3;
+using core::kMillisecondsPerSecond;
 
 }  // namespace
 
@@ -68,7 +70,7 @@ SolverMeasurement measureSolverSetting(const core::SceneOptions& scene, const So
     best_cpu_s = std::min(best_cpu_s, cpu_s);
     total_cpu_s += cpu_s;
   }
-  m.ms_per_frame = best_cpu_s * kMsPerS / frames_run;
+  m.ms_per_frame = best_cpu_s * kMillisecondsPerSecond / frames_run;
   return m;
 }
 

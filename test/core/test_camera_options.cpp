@@ -124,5 +124,29 @@ TEST(CameraOptions, UnknownNoiseAndKeysAreRefusedByName) {
   EXPECT_NE(errors[0].find("'focal'"), std::string::npos) << errors[0];
 }
 
+// A seed past an int's range is refused with the range it must lie in, not as "not an integer".
+TEST(CameraOptions, ASeedOutOfRangeIsRefusedWithItsRange) {
+  SceneOptions options;
+  std::vector<std::string> errors;
+  for (const char* seed : {"2147483648", "-1"}) {
+    errors.clear();
+    EXPECT_FALSE(readScene(std::string("cameras: [{name: a, frame: f, seed: ") + seed + "}]", &options, &errors));
+    ASSERT_EQ(errors.size(), 1u) << seed;
+    EXPECT_NE(errors[0].find(std::string("maps whose seed is an integer within [0, 2147483647] ([0].seed = '") +
+                             seed + "')"),
+              std::string::npos)
+        << errors[0];
+  }
+}
+
+// Any other integer field past an int's range says so, and its own range comes from validation.
+TEST(CameraOptions, AnIntegerPastAnIntsRangeIsRefusedAsSuch) {
+  SceneOptions options;
+  std::vector<std::string> errors;
+  EXPECT_FALSE(readScene("cameras: [{name: a, frame: f, width: 3000000000}]", &options, &errors));
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_NE(errors[0].find("width is an integer no larger in size than 2147483647"), std::string::npos) << errors[0];
+}
+
 }  // namespace
 }  // namespace cloth_sim::core

@@ -13,6 +13,7 @@
 
 #include <fuzzer/FuzzedDataProvider.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -164,10 +165,17 @@ void viewState(FuzzedDataProvider& input) {
     message.positions[input.ConsumeIntegralInRange<std::size_t>(0, count - 1)] = consumePoint(input);
   }
   const int max_side = input.ConsumeBool() ? core::OptionLimits::kMaxGridSide : input.ConsumeIntegral<int>();
+  // The outline's flags: none (most states), one per particle, or any other length; any byte values.
+  if (input.ConsumeBool()) {
+    const std::size_t flags = input.ConsumeBool() ? count : input.ConsumeIntegralInRange<std::size_t>(0, kMaxStatePoints);
+    message.active.resize(flags, 1);
+    for (std::size_t i = 0; i < flags; ++i) message.active[i] = input.ConsumeBool() ? 1 : input.ConsumeIntegral<std::uint8_t>();
+  }
 
   Eigen::Matrix3Xd positions_m;
+  std::vector<std::uint8_t> active;
   std::string error;
-  if (!cloth_sim::fromStateMessage(message, max_side, &positions_m, &error)) {
+  if (!cloth_sim::fromStateMessage(message, max_side, &positions_m, &active, &error)) {
     require(!error.empty(), "a ClothState refused without saying why");
     return;
   }
@@ -176,9 +184,11 @@ void viewState(FuzzedDataProvider& input) {
           "a ClothState accepted with a side outside [2, max_side]");
   require(static_cast<std::size_t>(positions_m.cols()) == product, "accepted positions do not fill the grid");
   require(positions_m.allFinite(), "an accepted position is not finite");
+  require(active.empty() || active.size() == product, "accepted flags do not fill the grid");
+  require(std::all_of(active.begin(), active.end(), [](std::uint8_t a) { return a <= 1; }), "an accepted flag is not 0 or 1");
   const core::ClothGrid grid = core::buildClothGrid(static_cast<int>(message.rows), static_cast<int>(message.cols), 1.0,
                                                     1.0, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(),
-                                                    Eigen::Vector3d::UnitY());
+                                                    Eigen::Vector3d::UnitY(), active);
   const visualization_msgs::Marker mesh = cloth_sim::toMeshMarker(grid, positions_m, core::checkerColors(grid.uv),
                                                                   message.header.frame_id, message.header.stamp);
   for (const geometry_msgs::Point& p : mesh.points) {

@@ -8,6 +8,7 @@
 //   ball.test         Ball.*                                   (config/scenes/ball.yaml)
 //   sim_time.test     SimTime.*                                (/use_sim_time, the test drives /clock)
 //   sim_time_twins.test SimTimeTwins.*                       (two node processes on one /clock)
+//   sim_time_tf.test  SimTimeTf.*                              (ball under /use_sim_time: its spheres' tf)
 //   bad_params.test   BadParams.*                              (no node: the tests start it themselves)
 // Every wait is a condition with a wall-clock deadline; no test sleeps to "let things settle".
 #include "test_helpers.h"
@@ -24,6 +25,7 @@
 #include <rosgraph_msgs/Log.h>
 #include <std_srvs/SetBool.h>
 #include <std_srvs/Trigger.h>
+#include <tf2_msgs/TFMessage.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
@@ -1162,6 +1164,50 @@ TEST(SimTime, ALeapingOrRewoundClockStillGivesOneFramePerTick) {
   ASSERT_TRUE(after_rewind) << "the node stopped publishing after /clock went back";
   EXPECT_EQ(after_rewind->frame, after_leap->frame + kTicks + 1);
   ASSERT_NO_FATAL_FAILURE(expectOneFramePerTick(rewound, after_rewind->frame));
+}
+
+// An audit's: under /use_sim_time, when /clock leapt several frames at once, roscpp fired the node's timer
+// again with no new time, and the node sent its spheres' tf a second time with the same stamp; every tf
+// listener (the node's own too) then logged TF_REPEATED_DATA for each sphere (sim_time_tf.test: ball).
+TEST(SimTimeTf, ASphereFrameGoesOutOncePerStampWhenTheClockLeaps) {
+  ASSERT_TRUE(ros::Time::isSimTime()) << "sim_time_tf.test must set /use_sim_time";
+  ros::NodeHandle nh;
+  Monitor<ClothState> states(nh, nodeTopic("state"));
+  Monitor<tf2_msgs::TFMessage> tfs(nh, "/tf", 1000);
+  ClockDriver clock(nh);
+  ASSERT_TRUE(waitUntil([&] { return states.publisherCount() >= 1 && tfs.publisherCount() >= 1; }, 15.0))
+      << "the node publishes no ~state or no /tf";
+  std::uint64_t index = 0;
+  ros::Time now(100, 0);
+  ASSERT_TRUE(clock.settleAt(now, states, &index)) << "no state stamped with the first clock";
+  constexpr int kLeaps = 6;
+  const ros::Duration leap(0.1);  // five frames at once
+  for (int k = 0; k < kLeaps; ++k) {
+    now += leap;
+    clock.publish(now);
+    ASSERT_TRUE(states.waitFor([&](const ClothState& s) { return s.header.stamp == now; }, 10.0, index, &index))
+        << "no state at " << now;
+  }
+  // One more frame, and its sphere: every tf sent before it has arrived (one publisher keeps its order).
+  now += ClockDriver::kTick;
+  clock.publish(now);
+  const auto is_sphere_at = [](const tf2_msgs::TFMessage& m, const ros::Time& stamp) {
+    for (const auto& t : m.transforms) {
+      if (t.child_frame_id == "sphere_0" && t.header.stamp == stamp) return true;
+    }
+    return false;
+  };
+  ASSERT_TRUE(tfs.waitFor([&](const tf2_msgs::TFMessage& m) { return is_sphere_at(m, now); }, 10.0))
+      << "no sphere_0 tf at " << now;
+  std::map<ros::Time, int> sent;
+  tfs.waitFor([&](const tf2_msgs::TFMessage& m) {
+    for (const auto& t : m.transforms) {
+      if (t.child_frame_id == "sphere_0") ++sent[t.header.stamp];
+    }
+    return false;  // look at every message received
+  }, 0.0);
+  EXPECT_GE(sent.size(), static_cast<std::size_t>(kLeaps + 1)) << "a sphere tf after each leap and the last frame";
+  for (const auto& [stamp, times] : sent) EXPECT_EQ(times, 1) << "sphere_0 sent " << times << " times at " << stamp;
 }
 
 TEST(SimTimeTwins, TwoNodeProcessesOnOneClockGiveIdenticalStates) {

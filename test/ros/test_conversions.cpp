@@ -10,6 +10,7 @@
 #include <boost/make_shared.hpp>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -143,6 +144,24 @@ TEST(FromStateMessage, RefusesANonFinitePosition) {
   EXPECT_EQ(error, "a position is not finite");
 }
 
+TEST(FromStateMessage, GivesTheParticlesThatAreClothAndRefusesMalformedFlags) {
+  Eigen::Matrix3Xd positions_m;
+  std::vector<std::uint8_t> active{9};
+  std::string error;
+  cloth_sim::ClothState message = gridState(2, 2);
+  ASSERT_TRUE(cloth_sim::fromStateMessage(message, 512, &positions_m, &active, &error)) << error;
+  EXPECT_TRUE(active.empty()) << "no flags: every particle is cloth";
+  message.active = {1, 0, 1, 1};
+  ASSERT_TRUE(cloth_sim::fromStateMessage(message, 512, &positions_m, &active, &error)) << error;
+  EXPECT_EQ(active, message.active);
+  message.active = {1, 0, 1};
+  EXPECT_FALSE(cloth_sim::fromStateMessage(message, 512, &positions_m, &active, &error));
+  EXPECT_EQ(error, "3 active flags for 4 particles");
+  message.active = {1, 0, 2, 1};
+  EXPECT_FALSE(cloth_sim::fromStateMessage(message, 512, &positions_m, &active, &error));
+  EXPECT_EQ(error, "active[2] = 2: must be 0 or 1");
+}
+
 // ---- GraspCommandQueue (issue 18): the last command of each id survives any flood ------------------
 
 cloth_sim::Grasp::ConstPtr graspCommand(std::uint32_t id, std::uint8_t action, double x = 0.0) {
@@ -236,4 +255,43 @@ TEST(ParticleCloud, ParticlesOutsideTheOutlineAreInvalidPoints) {
   }
   EXPECT_GT(invalid, 0);
   EXPECT_LT(invalid, 81);
+}
+
+// A recording or a viewer must know which particles an outline removed: ~state says so, and a viewer's
+// mesh from the state is the node's own (reviewed 2026-11-27: both drew the removed particles, frozen
+// where they started, joined to the cloth by stretched triangles).
+TEST(StateMessage, SaysWhichParticlesAreClothAndTheMeshFromItIsTheNodes) {
+  cloth_sim::core::SceneOptions options;
+  options.rows = 9;
+  options.cols = 9;
+  options.pins.clear();
+  cloth_sim::core::Simulation plain(options);
+  EXPECT_TRUE(cloth_sim::toStateMessage(plain, "world", ros::Time(1.0)).active.empty());
+
+  options.outline.shape = cloth_sim::core::OutlineOptions::Shape::kCircle;
+  options.outline.center_m = Eigen::Vector2d(0.5, 0.5);
+  options.outline.radius_m = 0.5;
+  cloth_sim::core::Simulation simulation(options);
+  for (int frame = 0; frame < 5; ++frame) simulation.advanceFrame();
+  const cloth_sim::ClothState state = cloth_sim::toStateMessage(simulation, "world", ros::Time(1.0));
+  ASSERT_EQ(state.active, simulation.grid().active);
+  ASSERT_GT(std::count(state.active.begin(), state.active.end(), 0), 0);
+
+  Eigen::Matrix3Xd positions_m;
+  std::vector<std::uint8_t> active;
+  std::string error;
+  ASSERT_TRUE(cloth_sim::fromStateMessage(state, 512, &positions_m, &active, &error)) << error;
+  const cloth_sim::core::ClothGrid grid =
+      cloth_sim::core::buildClothGrid(9, 9, 1.0, 1.0, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(),
+                                      Eigen::Vector3d::UnitY(), active);
+  const Eigen::Matrix3Xf colors = Eigen::Matrix3Xf::Ones(3, positions_m.cols());
+  const visualization_msgs::Marker drawn = cloth_sim::toMeshMarker(grid, positions_m, colors, "world", ros::Time(1.0));
+  const visualization_msgs::Marker node = cloth_sim::toMeshMarker(simulation, "world", ros::Time(1.0));
+  ASSERT_EQ(drawn.points.size(), node.points.size());
+  EXPECT_LT(drawn.points.size(), 6u * 8u * 8u);
+  for (std::size_t k = 0; k < drawn.points.size(); ++k) {
+    EXPECT_EQ(drawn.points[k].x, node.points[k].x) << k;
+    EXPECT_EQ(drawn.points[k].y, node.points[k].y) << k;
+    EXPECT_EQ(drawn.points[k].z, node.points[k].z) << k;
+  }
 }

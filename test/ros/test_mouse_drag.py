@@ -15,7 +15,8 @@ import unittest
 import rospy
 import rostest
 from cloth_sim.msg import ClothState
-from geometry_msgs.msg import Point
+from geometry_msgs.msg import Point, TransformStamped
+from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import InteractiveMarkerFeedback, InteractiveMarkerInit
 
 DEADLINE_S = 20.0
@@ -27,6 +28,8 @@ DRAG = (0.0, 0.3, 0.3)  # m, world frame: how far the mouse moves the marker
 TOLERANCE_M = 0.15
 NOT_FOLLOWED_S = 5.0  # s: a grab follows the mouse within a second or two (the test below)
 CLIENT_ID = "/test_mouse_drag"
+SHIFTED_FRAME = "shifted"  # a frame 1 m to the side of the node's: rviz's fixed frame need not be the node's
+SHIFT_M = 1.0
 
 
 def distance(a, b):
@@ -62,6 +65,7 @@ class MouseDrag(unittest.TestCase):
         self.init_subscriber = rospy.Subscriber("/cloth_node/mouse/update_full", InteractiveMarkerInit,
                                                 self.markers.append, queue_size=2)
         self.feedback = rospy.Publisher("/cloth_node/mouse/feedback", InteractiveMarkerFeedback, queue_size=10)
+        self.tf_static = rospy.Publisher("/tf_static", TFMessage, queue_size=1, latch=True)
 
     def feedback_message(self, event_type, marker_position=(0.0, 0.0, 0.0), mouse_point=None):
         message = InteractiveMarkerFeedback()
@@ -97,6 +101,44 @@ class MouseDrag(unittest.TestCase):
                                         deadline_s=NOT_FOLLOWED_S, keep_doing=lambda: self.feedback.publish(drag))
         self.feedback.publish(self.feedback_message(InteractiveMarkerFeedback.MOUSE_UP, marker_position=DRAG))
         self.assertIsNone(followed, "the corner followed a drag whose grab was dropped")
+
+    def test_a_click_in_another_frame_grabs_the_particle_under_it(self):
+        # An audit's: the node picked the clicked particle from the click's coordinates as if they were in
+        # its own frame, so a click on the bottom-left corner given in a frame 1 m to the side grabbed the
+        # bottom-right one. rviz sends the feedback in its fixed frame, which need not be the node's.
+        shifted = TransformStamped()
+        shifted.header.frame_id = "world"
+        shifted.header.stamp = rospy.Time.now()
+        shifted.child_frame_id = SHIFTED_FRAME
+        shifted.transform.translation.x = -SHIFT_M  # its origin 1 m along -x: a point's x there is x + 1 m
+        shifted.transform.rotation.w = 1.0
+        self.tf_static.publish(TFMessage([shifted]))
+        deadline = time.monotonic() + DEADLINE_S
+        while time.monotonic() < deadline and self.feedback.get_num_connections() == 0:
+            time.sleep(0.05)
+        start = self.states.wait_for(lambda s: True)
+        self.assertIsNotNone(start, "no ~state")
+        corner = start.positions[CORNER]
+        clicked = Point(corner.x + 0.01 + SHIFT_M, corner.y, corner.z + 0.01)  # the corner, in SHIFTED_FRAME
+        target = Point(corner.x + 0.01 + DRAG[0], corner.y + DRAG[1], corner.z + 0.01 + DRAG[2])  # world
+        down = self.feedback_message(InteractiveMarkerFeedback.MOUSE_DOWN, mouse_point=clicked)
+        down.header.frame_id = SHIFTED_FRAME
+        # The marker stands at the node's origin: (1, 0, 0) in the shifted frame.
+        down.pose.position = Point(SHIFT_M, 0.0, 0.0)
+        drag = self.feedback_message(InteractiveMarkerFeedback.POSE_UPDATE,
+                                     marker_position=(SHIFT_M + DRAG[0], DRAG[1], DRAG[2]))
+        drag.header.frame_id = SHIFTED_FRAME
+        up = self.feedback_message(InteractiveMarkerFeedback.MOUSE_UP)
+        up.header.frame_id = SHIFTED_FRAME
+        # tf may take a moment to hear of the frame: the whole click (up, down, drag) is sent again until
+        # the corner follows, each time picking afresh.
+        followed = self.states.wait_for(lambda s: distance(s.positions[CORNER], target) < TOLERANCE_M,
+                                        keep_doing=lambda: (self.feedback.publish(up), self.feedback.publish(down),
+                                                            self.feedback.publish(drag)))
+        self.feedback.publish(up)
+        last = self.states.latest.positions[CORNER]
+        self.assertIsNotNone(followed, "the clicked corner stayed %.3f m from the mouse's target"
+                             % distance(last, target))
 
     def test_click_drag_and_let_go_moves_the_clicked_particle(self):
         deadline = time.monotonic() + DEADLINE_S

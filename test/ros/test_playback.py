@@ -6,6 +6,9 @@ Writes a short bag of a small cloth's states, starts `roslaunch cloth_sim playba
 rviz:=false loop:=false` against the test's master, and waits
   - with viewer:=true, for /cloth_node/mesh: a TRIANGLE_LIST of 6 (rows - 1)(cols - 1) points at the
     recorded positions;
+  - with viewer:=true at 25 Hz from a recording whose even states are malformed, for meshes of the odd
+    ones: a state the viewer drops does not use up a mesh's turn;
+  - with viewer:=true from states whose `active` leaves a particle out (an outline), for a mesh without it;
   - with the defaults, for /tf_static to carry `world` (rviz's fixed frame in config/cloth.rviz) as a
     child of `map`: without it rviz's Global Status stays at Warn ("Fixed Frame: No tf data").
 Run by test/ros/playback.test.
@@ -47,18 +50,35 @@ def recorded_state(frame):
     return state
 
 
-def write_bag(path):
+def malformed_on_even_frames(frame):
+    """recorded_state, with one particle short of rows x cols on even frames: the viewer must drop those."""
+    state = recorded_state(frame)
+    if frame % 2 == 0:
+        state.positions = state.positions[:-1]
+    return state
+
+
+def outlined_state(frame):
+    """recorded_state of a cloth whose outline left particle 0 out: frozen far from the rest, not cloth."""
+    state = recorded_state(frame)
+    state.positions[0] = Point(5.0, 5.0, 5.0)
+    state.active = [0] + [1] * (ROWS * COLS - 1)
+    return state
+
+
+def write_bag(path, make_state=recorded_state):
     with rosbag.Bag(path, "w", compression="lz4") as bag:
         for frame in range(FRAMES):
-            state = recorded_state(frame)
+            state = make_state(frame)
             bag.write("/cloth_node/state", state, state.header.stamp)
 
 
-def play_until(arguments, done):
-    """Runs playback.launch with `arguments` on a fresh bag until done() or the deadline; roslaunch's output."""
+def play_until(arguments, done, make_state=recorded_state):
+    """Runs playback.launch with `arguments` on a fresh bag of make_state's states until done() or the
+    deadline; roslaunch's output."""
     with tempfile.TemporaryDirectory() as folder:
         bag_path = os.path.join(folder, "states.bag")
-        write_bag(bag_path)
+        write_bag(bag_path, make_state)
         launch = subprocess.Popen(["roslaunch", "cloth_sim", "playback.launch", "bag:=" + bag_path, "rviz:=false",
                                    "loop:=false"] + arguments, stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
         try:
@@ -86,6 +106,35 @@ class Playback(unittest.TestCase):
         # Every point is one of the recorded particles (the first triangle starts at particle 0).
         xs = sorted({round(p.x, 6) for p in mesh.points})
         self.assertEqual(xs, [round(c * SPACING_M, 6) for c in range(COLS)])
+
+    def test_a_state_the_viewer_drops_does_not_take_a_mesh_s_turn(self):
+        # At 25 Hz from 50 Hz states the schedule wants every other state, and every one it would pick (the
+        # even frames, from the first) is malformed here. The viewer used to count a dropped state as drawn,
+        # so the well-formed state after it was a period early and no mesh was ever drawn.
+        meshes = []
+        rospy.set_param("/cloth_viewer/mesh_rate", 25.0)
+        try:
+            subscriber = rospy.Subscriber("/cloth_node/mesh", Marker, meshes.append, queue_size=100)
+            output = play_until(["viewer:=true"], lambda: len(meshes) >= 3, malformed_on_even_frames)
+            subscriber.unregister()
+        finally:
+            rospy.delete_param("/cloth_viewer/mesh_rate")
+        self.assertGreaterEqual(len(meshes), 3, "the viewer drew no mesh from the well-formed (odd) states; "
+                                "roslaunch said:\n" + output[-2000:])
+        for mesh in meshes:
+            frame = round((mesh.header.stamp.to_sec() - 1.0) / FRAME_S)
+            self.assertEqual(frame % 2, 1, "a mesh from a malformed state")
+            self.assertEqual(len(mesh.points), 6 * (ROWS - 1) * (COLS - 1))
+
+    def test_particles_outside_an_outline_are_left_out_of_the_mesh(self):
+        # The quad at particle 0 loses both its triangles (the node's own ~mesh leaves them out the same way).
+        meshes = []
+        subscriber = rospy.Subscriber("/cloth_node/mesh", Marker, meshes.append, queue_size=10)
+        output = play_until(["viewer:=true"], lambda: meshes, outlined_state)
+        subscriber.unregister()
+        self.assertTrue(meshes, "no mesh from playback.launch viewer:=true; roslaunch said:\n" + output[-2000:])
+        self.assertEqual(len(meshes[0].points), 6 * (ROWS - 1) * (COLS - 1) - 6)
+        self.assertFalse([p for p in meshes[0].points if p.x == 5.0], "the removed particle was drawn")
 
     def test_a_recording_without_tf_still_has_the_fixed_frame(self):
         # The bag written here holds no /tf and no /tf_static: the frame can only come from the launch.

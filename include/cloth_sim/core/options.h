@@ -239,6 +239,10 @@ std::string exactNumberText(double value, int fewest_digits);
 /// "substeps = 0: must be in [1, 10000]". Empty when the options are valid.
 std::vector<std::string> validateSceneOptions(const SceneOptions& options);
 
+/// Whether two scene options build the same cloth grid (rows, columns, sides, pose, pins and their
+/// motion, mass, whether a material sets it, outline): a retune or a restored snapshot must keep the grid.
+bool sameClothGrid(const SceneOptions& a, const SceneOptions& b);
+
 /// Resolves the pin selectors to sorted, unique particle indices; an unknown selector is reported in
 /// *error (and nothing is returned).
 std::vector<int> resolvePins(const std::vector<std::string>& selectors, int rows, int cols, std::string* error);

@@ -259,6 +259,9 @@ class Simulation {
   int nextFrameSubsteps();
   /// Recomputes the stiffness bound if something it depends on changed (bound_stale_).
   void refreshBound();
+  /// A new integrator for `options` where its kind or its solver's settings differ from options_' (a
+  /// retune or a restore; the integrator keeps no state across frames, so an unchanged one stays).
+  void remakeIntegratorIfChanged(const SceneOptions& options);
   /// Why a scene with these colliders cannot start: free particles of the cloth at rest more than the
   /// contact band (plus kStartInsideTolerance_m) inside a plane, a sphere at t = 0 or a box; "" if none.
   std::string startsInsideCollider(const SceneOptions& options) const;

@@ -14,6 +14,7 @@
 #include <xmlrpcpp/XmlRpcValue.h>
 #include <yaml-cpp/yaml.h>
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,10 @@ visualization_msgs::Marker toMeshMarker(const core::ClothGrid& grid, const Eigen
 /// the position count disagree, the grid is outside [2, max_side] per side, or a value is not finite.
 bool fromStateMessage(const cloth_sim::ClothState& message, int max_side, Eigen::Matrix3Xd* positions_m,
                       std::string* error);
+/// The same, and the particles that are cloth (`active`: empty when every particle is, else one 0 or 1 per
+/// particle, as core::ClothGrid::active); false with *error when `active` has another length or value.
+bool fromStateMessage(const cloth_sim::ClothState& message, int max_side, Eigen::Matrix3Xd* positions_m,
+                      std::vector<std::uint8_t>* active, std::string* error);
 
 /// The whole state after a frame, with energies and the integrator in use.
 cloth_sim::ClothState toStateMessage(const core::Simulation& simulation, const std::string& frame_id,
@@ -47,6 +52,8 @@ visualization_msgs::MarkerArray toColliderMarkers(const core::Simulation& simula
 
 /// A vector (a velocity, a force, a torque) as a message.
 geometry_msgs::Vector3 toVector3(const Eigen::Vector3d& v);
+/// A point (m) as a message.
+geometry_msgs::Point toPoint(const Eigen::Vector3d& p);
 
 /// child_frame at parent_frame's origin, unrotated: the static tf that places the cloth's frame in a
 /// parent frame (the node's and the viewer's ~parent_frame_id).

@@ -30,8 +30,10 @@ class MouseDrag {
   static constexpr double kShapeRefreshPeriod_s = 0.5;
 
   using GraspSink = std::function<void(const cloth_sim::Grasp&)>;
-  /// The particle nearest to a point in the marker's frame (the node's frame_id), as the cloth stands now.
-  using ParticlePicker = std::function<int(const Eigen::Vector3d&)>;
+  /// The particle nearest to a point given in `header.frame_id` (the frame the feedback came in: rviz's
+  /// fixed frame, not necessarily the node's frame_id), as the cloth stands now; -1 where tf cannot
+  /// express the point in the node's frame (the picker warns with tf's reason, and no drag begins).
+  using ParticlePicker = std::function<int(const std_msgs::Header&, const Eigen::Vector3d&)>;
 
   /// Serves the marker under topic namespace `topic_ns` (its feedback topic is topic_ns + "/feedback");
   /// `grasp` receives the grab, drag and release messages; `pick` names the clicked particle.

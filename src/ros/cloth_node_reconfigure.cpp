@@ -1,0 +1,142 @@
+// cloth_node's dynamic_reconfigure: every value checked as it arrives (the .cfg gives no ranges), mapped
+// onto the scene's options and applied through Simulation::retune, and the ranges and current values
+// published back. Declared in cloth_node.h.
+#include "cloth_sim/ros/cloth_node.h"
+
+#include <cmath>
+#include <sstream>
+#include <string>
+
+namespace cloth_sim {
+
+void ClothNode::onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t) {
+  // The .cfg gives no ranges, so dynamic_reconfigure's server clamps nothing (it clamped -5 to 0 and inf
+  // to 1e4 silently, and let NaN through): every value arrives as sent and is checked here, and a
+  // refused change keeps the whole previous configuration.
+  const std::string invalid = invalidReconfigureValue(config);
+  if (!invalid.empty()) {
+    ROS_WARN("cloth_node: reconfigure refused: %s; the previous values stay", invalid.c_str());
+    fillConfig(&config);
+    reconfigure_wind_ = Eigen::Vector3d(config.wind_x, config.wind_y, config.wind_z);
+    return;
+  }
+  core::SceneOptions options = simulation_->options();
+  const double stiffness[core::kSpringKindCount] = {config.structural_stiffness, config.shear_stiffness,
+                                              config.bend_stiffness};
+  const double damping[core::kSpringKindCount] = {config.structural_damping, config.shear_damping, config.bend_damping};
+  for (int k = 0; k < core::kSpringKindCount; ++k) {
+    options.springs[k].stiffness_N_per_m = stiffness[k];
+    options.springs[k].damping_N_s_per_m = damping[k];
+  }
+  options.air_damping_N_s_per_m = config.air_damping;
+  // The wind sliders count only when they moved: comparing them with the wind in force would undo every
+  // wind that came in on ~wind (the sliders do not follow the topic) at the next reconfigure of anything.
+  const Eigen::Vector3d wind(config.wind_x, config.wind_y, config.wind_z);
+  std::string error;
+  if (!core::parseIntegratorName(config.integrator, &options.integrator)) {
+    error = "integrator '" + config.integrator + "' is unknown";
+  }
+  options.substeps = config.substeps;
+  options.self_collision.enabled = config.self_collision;
+  options.self_collision.thickness_m = config.self_collision_thickness;
+  options.self_collision.friction = config.self_collision_friction;
+  options.solver.tolerance = config.solver_tolerance;
+  options.solver.max_iterations = config.solver_max_iterations;
+  if (error.empty() && !core::parsePreconditionerName(config.solver_preconditioner, &options.solver.preconditioner)) {
+    error = "solver_preconditioner = '" + config.solver_preconditioner + "': must be one of " +
+            core::preconditionerNameList();
+  }
+  if (!error.empty() || !simulation_->retune(options, &error)) {
+    ROS_WARN("cloth_node: reconfigure refused: %s; the previous values stay", error.c_str());
+  } else if (wind != reconfigure_wind_) {
+    simulation_->setWindVelocity(wind);  // the wind is an input, not an option: retune leaves it alone
+  }
+  // Answer and publish what is in force (a refused change is not; a ~wind is), so the sliders follow.
+  fillConfig(&config);
+  reconfigure_wind_ = Eigen::Vector3d(config.wind_x, config.wind_y, config.wind_z);
+}
+
+std::string ClothNode::invalidReconfigureValue(const cloth_sim::ClothConfig& config) const {
+  const std::pair<const char*, double> numbers[] = {
+      {"structural_stiffness", config.structural_stiffness}, {"structural_damping", config.structural_damping},
+      {"shear_stiffness", config.shear_stiffness},           {"shear_damping", config.shear_damping},
+      {"bend_stiffness", config.bend_stiffness},             {"bend_damping", config.bend_damping},
+      {"air_damping", config.air_damping},                   {"wind_x", config.wind_x},
+      {"wind_y", config.wind_y},                             {"wind_z", config.wind_z},
+      {"solver_tolerance", config.solver_tolerance},         {"self_collision_thickness", config.self_collision_thickness},
+      {"self_collision_friction", config.self_collision_friction}};
+  for (const auto& [field, value] : numbers) {
+    if (!std::isfinite(value)) return std::string(field) + " = " + std::to_string(value) + ": must be finite";
+  }
+  // The sliders are the wind's components; its magnitude is what ~wind and the scene files bound.
+  const Eigen::Vector3d wind(config.wind_x, config.wind_y, config.wind_z);
+  if (wind != reconfigure_wind_ && wind.norm() > core::OptionLimits::kMaxWindSpeed_m_per_s) {
+    std::ostringstream out;
+    out << "wind_x, wind_y, wind_z = (" << wind.x() << ", " << wind.y() << ", " << wind.z() << "): magnitude "
+        << wind.norm() << " m/s must be at most " << core::OptionLimits::kMaxWindSpeed_m_per_s << " m/s";
+    return out.str();
+  }
+  return "";
+}
+
+void ClothNode::publishReconfigureRanges() {
+  // The server clamps to the .cfg's ranges, which are left open; the ranges shown to rqt_reconfigure and
+  // the clients (parameter_descriptions) are set here from OptionLimits, the ones validation enforces.
+  using L = core::OptionLimits;
+  cloth_sim::ClothConfig low = cloth_sim::ClothConfig::__getMin__();
+  cloth_sim::ClothConfig high = cloth_sim::ClothConfig::__getMax__();
+  for (double* field : {&low.structural_stiffness, &low.shear_stiffness, &low.bend_stiffness, &low.structural_damping,
+                        &low.shear_damping, &low.bend_damping, &low.air_damping}) {
+    *field = 0.0;
+  }
+  high.structural_stiffness = high.shear_stiffness = high.bend_stiffness = L::kMaxStiffnessN_per_m;
+  high.structural_damping = high.shear_damping = high.bend_damping = high.air_damping = L::kMaxDampingN_s_per_m;
+  low.wind_x = low.wind_y = low.wind_z = -L::kMaxWindSpeed_m_per_s;
+  high.wind_x = high.wind_y = high.wind_z = L::kMaxWindSpeed_m_per_s;
+  low.substeps = core::SceneOptions::kAutoSubsteps;  // 0: auto, as the scenes use it
+  high.substeps = L::kMaxSubsteps;
+  low.solver_tolerance = L::kMinSolverTolerance;
+  high.solver_tolerance = 1.0;
+  low.self_collision_thickness = 0.0;
+  high.self_collision_thickness = L::kMaxSelfCollisionThickness_m;
+  low.self_collision_friction = 0.0;
+  high.self_collision_friction = L::kMaxFriction;
+  low.solver_max_iterations = 1;
+  high.solver_max_iterations = L::kMaxSolverIterations;
+  reconfigure_->setConfigMin(low);
+  reconfigure_->setConfigMax(high);
+}
+
+void ClothNode::fillConfig(cloth_sim::ClothConfig* config) const {
+  const core::SceneOptions& o = simulation_->options();
+  cloth_sim::ClothConfig& c = *config;
+  c.structural_stiffness = o.springs[0].stiffness_N_per_m;
+  c.structural_damping = o.springs[0].damping_N_s_per_m;
+  c.shear_stiffness = o.springs[1].stiffness_N_per_m;
+  c.shear_damping = o.springs[1].damping_N_s_per_m;
+  c.bend_stiffness = o.springs[2].stiffness_N_per_m;
+  c.bend_damping = o.springs[2].damping_N_s_per_m;
+  c.air_damping = o.air_damping_N_s_per_m;
+  const Eigen::Vector3d& wind = simulation_->inputs().wind_m_per_s;
+  c.wind_x = wind.x();
+  c.wind_y = wind.y();
+  c.wind_z = wind.z();
+  c.integrator = core::integratorName(o.integrator);
+  c.substeps = o.substeps;
+  c.solver_tolerance = o.solver.tolerance;
+  c.solver_max_iterations = o.solver.max_iterations;
+  c.solver_preconditioner = core::preconditionerName(o.solver.preconditioner);
+  c.self_collision = o.self_collision.enabled;
+  c.self_collision_thickness = o.self_collision.thickness_m;
+  c.self_collision_friction = o.self_collision.friction;
+}
+
+void ClothNode::pushConfig() {
+  if (!reconfigure_) return;
+  cloth_sim::ClothConfig config;
+  fillConfig(&config);
+  reconfigure_wind_ = Eigen::Vector3d(config.wind_x, config.wind_y, config.wind_z);
+  reconfigure_->updateConfig(config);
+}
+
+}  // namespace cloth_sim
