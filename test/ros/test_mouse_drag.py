@@ -81,15 +81,19 @@ class MouseDrag(unittest.TestCase):
             message.mouse_point_valid = True
         return message
 
-    def test_a_drag_whose_mouse_down_was_dropped_grabs_nothing(self):
-        # The mouse-down names a frame tf does not know, so the node drops its grab; pose updates in
-        # another frame must not grab the cloth after all (they did: the corner followed them).
+    def free_corner(self):
+        """Where the free corner is once the node listens to the mouse (in `world`)."""
         deadline = time.monotonic() + DEADLINE_S
         while time.monotonic() < deadline and self.feedback.get_num_connections() == 0:
             time.sleep(0.05)
         start = self.states.wait_for(lambda s: True)
         self.assertIsNotNone(start, "no ~state")
-        corner = start.positions[CORNER]
+        return start.positions[CORNER]
+
+    def test_a_drag_whose_mouse_down_was_dropped_grabs_nothing(self):
+        # The mouse-down names a frame tf does not know, so the node drops its grab; pose updates in
+        # another frame must not grab the cloth after all (they did: the corner followed them).
+        corner = self.free_corner()
         clicked = Point(corner.x + 0.01, corner.y, corner.z + 0.01)
         target = Point(clicked.x + DRAG[0], clicked.y + DRAG[1], clicked.z + DRAG[2])
         down = self.feedback_message(InteractiveMarkerFeedback.MOUSE_DOWN, mouse_point=clicked)
@@ -113,12 +117,7 @@ class MouseDrag(unittest.TestCase):
         shifted.transform.translation.x = -SHIFT_M  # its origin 1 m along -x: a point's x there is x + 1 m
         shifted.transform.rotation.w = 1.0
         self.tf_static.publish(TFMessage([shifted]))
-        deadline = time.monotonic() + DEADLINE_S
-        while time.monotonic() < deadline and self.feedback.get_num_connections() == 0:
-            time.sleep(0.05)
-        start = self.states.wait_for(lambda s: True)
-        self.assertIsNotNone(start, "no ~state")
-        corner = start.positions[CORNER]
+        corner = self.free_corner()
         clicked = Point(corner.x + 0.01 + SHIFT_M, corner.y, corner.z + 0.01)  # the corner, in SHIFTED_FRAME
         target = Point(corner.x + 0.01 + DRAG[0], corner.y + DRAG[1], corner.z + 0.01 + DRAG[2])  # world
         down = self.feedback_message(InteractiveMarkerFeedback.MOUSE_DOWN, mouse_point=clicked)
