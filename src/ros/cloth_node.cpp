@@ -286,7 +286,7 @@ void ClothNode::install(std::unique_ptr<core::Simulation> simulation) {
   timer_.setPeriod(frame_period);
   last_report_ = core::FrameReport();
   asleep_ = false;
-  last_sphere_stamp_.reset();  // the new scene's spheres go out at the next publish
+  last_published_stamp_.reset();  // the new scene's colliders and spheres go out at the next publish
   reanchor();
   pushConfig();
 }
@@ -410,17 +410,16 @@ void ClothNode::publish(const ros::Time& stamp, bool with_state) {
     mesh_pub_.publish(toMeshMarker(*simulation_, frame_id_, stamp));
   }
   if (with_state) publishState(stamp);
+  // Once per stamp: under /use_sim_time roscpp fires a late timer again with no new time when /clock
+  // leaps, and what follows went out twice at one stamp (the spheres' tf then made every tf listener, the
+  // node's own too, log TF_REPEATED_DATA). A replaced scene or state clears it.
+  if (last_published_stamp_ == stamp) return;
+  last_published_stamp_ = stamp;
   if (colliders_pub_.getNumSubscribers() > 0 && !simulation_->options().colliders.empty()) {
     colliders_pub_.publish(toColliderMarkers(*simulation_, frame_id_, stamp));
   }
-  // Once per stamp: under /use_sim_time a tick with no new time (roscpp fires a late timer again when
-  // /clock leaps) sent the same stamp twice, and every tf listener, the node's own too, logged
-  // TF_REPEATED_DATA for each sphere.
-  if (last_sphere_stamp_ != stamp) {
-    const auto transforms = toSphereTransforms(*simulation_, frame_id_, stamp);
-    if (!transforms.empty()) tf_broadcaster_.sendTransform(transforms);
-    last_sphere_stamp_ = stamp;
-  }
+  const auto transforms = toSphereTransforms(*simulation_, frame_id_, stamp);
+  if (!transforms.empty()) tf_broadcaster_.sendTransform(transforms);
   cameras_->publish(*simulation_, stamp);  // ~points and the cameras, each only while subscribed
   if (mouse_) mouse_->update(*simulation_, frame_id_, stamp);
 }
@@ -521,6 +520,7 @@ bool ClothNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response
   simulation_->reset();
   asleep_ = false;  // frame 0 is computed, not slept through
   grippers_->synchronize();  // a reset lets every gripper go
+  last_published_stamp_.reset();  // the spheres back at their start go out whatever the clock reads
   reanchor();
   publish(ros::Time::now());
   response.success = true;
@@ -692,7 +692,7 @@ bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::L
   timer_.setPeriod(ros::Duration(simulation_->options().frameDuration_s()));
   last_report_ = core::FrameReport();
   asleep_ = false;
-  last_sphere_stamp_.reset();  // the loaded spheres go out with the state, whatever the clock reads
+  last_published_stamp_.reset();  // the loaded colliders and spheres go out with the state, whatever the clock reads
   reanchor();  // the loaded frame is due now: the run continues from here at the frame rate
   pushConfig();
   publish(ros::Time::now());

@@ -17,6 +17,7 @@
 // message gets; cloth_node sends the frames a late tick caught up on back to back (up to 6), so a
 // subscriber that wants every frame, and this tool counting them, needs a queue that deep.
 #include "cloth_sim/core/constants.h"
+#include "cloth_sim/ros/message_definition.h"
 
 #include <ros/ros.h>
 #include <topic_tools/shape_shifter.h>
@@ -61,26 +62,6 @@ struct TopicRecord {
   std::optional<bool> headed;
   std::vector<std::uint8_t> buffer;  ///< the last message's bytes (ShapeShifter gives them only by copy)
 };
-
-/// Whether a message definition's first field is its header ("Header header" or "std_msgs/Header
-/// header"): a type with a header serialises it first. Comments, blank lines and constants (which are
-/// not serialised: visualization_msgs/Marker declares ARROW=0 and the rest before its header) come
-/// before it in most definitions, so they are passed over.
-bool startsWithHeader(const std::string& definition) {
-  std::size_t line_start = 0;
-  while (line_start < definition.size()) {
-    std::size_t line_end = definition.find('\n', line_start);
-    if (line_end == std::string::npos) line_end = definition.size();
-    const std::string line = definition.substr(line_start, line_end - line_start);
-    const std::string code = line.substr(0, line.find('#'));
-    const std::size_t first = code.find_first_not_of(" \t\r");
-    if (first != std::string::npos && code.find('=') == std::string::npos) {
-      return code.compare(first, 13, "Header header") == 0 || code.compare(first, 22, "std_msgs/Header header") == 0;
-    }
-    line_start = line_end + 1;
-  }
-  return false;
-}
 
 double percentile(std::vector<double> sorted, double fraction) {
   if (sorted.empty()) return 0.0;
@@ -166,7 +147,7 @@ class RateMeter {
     if (now_s < record.first_arrival_s + skip_s_ || now_s > record.first_arrival_s + skip_s_ + seconds_) return;
     record.arrivals_s.push_back(now_s);
     record.bytes += message.size();
-    if (!record.headed) record.headed = startsWithHeader(message.getMessageDefinition());
+    if (!record.headed) record.headed = cloth_sim::definitionStartsWithHeader(message.getMessageDefinition());
     if (*record.headed && message.size() >= kStampOffset + kStampBytes) {
       record.buffer.resize(message.size());
       ros::serialization::OStream stream(record.buffer.data(), static_cast<std::uint32_t>(record.buffer.size()));

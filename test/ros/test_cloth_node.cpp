@@ -8,7 +8,7 @@
 //   ball.test         Ball.*                                   (config/scenes/ball.yaml)
 //   sim_time.test     SimTime.*                                (/use_sim_time, the test drives /clock)
 //   sim_time_twins.test SimTimeTwins.*                       (two node processes on one /clock)
-//   sim_time_tf.test  SimTimeTf.*                              (ball under /use_sim_time: its spheres' tf)
+//   sim_time_tf.test  SimTimeTf.*                              (ball under /use_sim_time: its spheres' tf, colliders)
 //   bad_params.test   BadParams.*                              (no node: the tests start it themselves)
 // Every wait is a condition with a wall-clock deadline; no test sleeps to "let things settle".
 #include "test_helpers.h"
@@ -30,6 +30,7 @@
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 #include <visualization_msgs/Marker.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include <Eigen/Core>
 #include <gtest/gtest.h>
@@ -1167,16 +1168,19 @@ TEST(SimTime, ALeapingOrRewoundClockStillGivesOneFramePerTick) {
 }
 
 // An audit's: under /use_sim_time, when /clock leapt several frames at once, roscpp fired the node's timer
-// again with no new time, and the node sent its spheres' tf a second time with the same stamp; every tf
-// listener (the node's own too) then logged TF_REPEATED_DATA for each sphere (sim_time_tf.test: ball).
-TEST(SimTimeTf, ASphereFrameGoesOutOncePerStampWhenTheClockLeaps) {
+// again with no new time, and the node sent its spheres' tf and its colliders a second time with the same
+// stamp; every tf listener (the node's own too) then logged TF_REPEATED_DATA for each sphere
+// (sim_time_tf.test: ball).
+TEST(SimTimeTf, TheSpheresTfAndTheCollidersGoOutOncePerStampWhenTheClockLeaps) {
   ASSERT_TRUE(ros::Time::isSimTime()) << "sim_time_tf.test must set /use_sim_time";
   ros::NodeHandle nh;
   Monitor<ClothState> states(nh, nodeTopic("state"));
   Monitor<tf2_msgs::TFMessage> tfs(nh, "/tf", 1000);
+  Monitor<visualization_msgs::MarkerArray> colliders(nh, nodeTopic("colliders"), 1000);
   ClockDriver clock(nh);
-  ASSERT_TRUE(waitUntil([&] { return states.publisherCount() >= 1 && tfs.publisherCount() >= 1; }, 15.0))
-      << "the node publishes no ~state or no /tf";
+  ASSERT_TRUE(waitUntil([&] {
+    return states.publisherCount() >= 1 && tfs.publisherCount() >= 1 && colliders.publisherCount() >= 1;
+  }, 15.0)) << "the node publishes no ~state, no /tf or no ~colliders";
   std::uint64_t index = 0;
   ros::Time now(100, 0);
   ASSERT_TRUE(clock.settleAt(now, states, &index)) << "no state stamped with the first clock";
@@ -1208,6 +1212,17 @@ TEST(SimTimeTf, ASphereFrameGoesOutOncePerStampWhenTheClockLeaps) {
   }, 0.0);
   EXPECT_GE(sent.size(), static_cast<std::size_t>(kLeaps + 1)) << "a sphere tf after each leap and the last frame";
   for (const auto& [stamp, times] : sent) EXPECT_EQ(times, 1) << "sphere_0 sent " << times << " times at " << stamp;
+  // The colliders' markers too, once per stamp (they came twice with the tf).
+  ASSERT_TRUE(colliders.waitFor([&](const visualization_msgs::MarkerArray& m) {
+    return !m.markers.empty() && m.markers.front().header.stamp == now;
+  }, 10.0)) << "no ~colliders at " << now;
+  std::map<ros::Time, int> drawn;
+  colliders.waitFor([&](const visualization_msgs::MarkerArray& m) {
+    if (!m.markers.empty()) ++drawn[m.markers.front().header.stamp];
+    return false;  // look at every message received
+  }, 0.0);
+  EXPECT_GE(drawn.size(), static_cast<std::size_t>(kLeaps + 1)) << "~colliders after each leap and the last frame";
+  for (const auto& [stamp, times] : drawn) EXPECT_EQ(times, 1) << "~colliders sent " << times << " times at " << stamp;
 }
 
 TEST(SimTimeTwins, TwoNodeProcessesOnOneClockGiveIdenticalStates) {

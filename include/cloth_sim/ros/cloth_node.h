@@ -213,9 +213,10 @@ class ClothNode {
   tf2_ros::Buffer tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::unique_ptr<DepthCameras> cameras_;  ///< ~points and the scene's cameras; after tf_buffer_, which it reads
-  /// The stamp of the sphere colliders' last tf (sent once per stamp); none since the scene or state was
-  /// replaced, whose spheres go out at the next publish whatever its stamp.
-  std::optional<ros::Time> last_sphere_stamp_;
+  /// The stamp the colliders, the spheres' tf, ~points and the cameras last went out with (once per
+  /// stamp); none since the scene or state was replaced, whose go out at the next publish whatever its
+  /// stamp.
+  std::optional<ros::Time> last_published_stamp_;
   FrameInputs frame_inputs_{tf_buffer_};  ///< stamped inputs into frame_id_ (tf-or-drop)
   std::unique_ptr<Grippers> grippers_;   ///< ~attach, ~detach, ~gripper_<id>/wrench; reads frame_inputs_
   std::unique_ptr<FrameColliderInputs> frame_colliders_;  ///< links on tf frames; reads frame_inputs_
