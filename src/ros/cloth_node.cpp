@@ -419,7 +419,7 @@ void ClothNode::publish(const ros::Time& stamp, bool with_state) {
   if (!new_stamp && new_frame) mesh_schedule_->restart();
   // Half a frame early counts as on time (timer jitter); time running backwards (a looping /clock) makes
   // a mesh due at once (MeshSchedule).
-  if (mesh_pub_.getNumSubscribers() > 0 &&
+  if ((new_stamp || new_frame) && mesh_pub_.getNumSubscribers() > 0 &&
       mesh_schedule_->due(stamp.toSec(), kMeshEarlyFrames * simulation_->options().frameDuration_s())) {
     mesh_pub_.publish(toMeshMarker(*simulation_, frame_id_, stamp));
   }
