@@ -286,7 +286,7 @@ void ClothNode::install(std::unique_ptr<core::Simulation> simulation) {
   timer_.setPeriod(frame_period);
   last_report_ = core::FrameReport();
   asleep_ = false;
-  last_published_stamp_.reset();  // the new scene's colliders and spheres go out at the next publish
+  forgetPublished();  // the new scene goes out at the next publish
   reanchor();
   pushConfig();
 }
@@ -397,29 +397,43 @@ ros::Time ClothNode::frameTime(std::uint64_t frame) const {
   return anchor_time_ + ros::Duration(since_anchor_s);
 }
 
+void ClothNode::forgetPublished() {
+  last_published_stamp_.reset();
+  mesh_schedule_->restart();
+}
+
 void ClothNode::publish(const ros::Time& stamp, bool with_state) {
   // The core rolls a diverged frame back, so this holds; rviz crashes on NaN markers, so check anyway.
   if (!core::isFiniteAndBounded(simulation_->state(), core::Simulation::kDivergenceBound_m)) {
     ROS_ERROR_THROTTLE(kWarnThrottle_s, "cloth_node: state is not finite; not publishing");
     return;
   }
+  // Once per stamp and frame: under /use_sim_time roscpp fires a late timer again with no new time when
+  // /clock leaps, and what follows went out twice at one stamp (the spheres' tf then made every tf
+  // listener, the node's own too, log TF_REPEATED_DATA). But a new frame at the same stamp (a ~step, a
+  // reset or a loaded state under a held /clock) is news: it goes out, all but the tf, which tf2 would
+  // refuse at a stamp it has. A replaced scene or state, and a reset, clear what was sent.
+  const std::uint64_t frame = simulation_->state().frame;
+  const bool new_stamp = last_published_stamp_ != stamp;
+  const bool new_frame = !last_published_stamp_ || frame != last_published_frame_;
+  if (!new_stamp && new_frame) mesh_schedule_->restart();
   // Half a frame early counts as on time (timer jitter); time running backwards (a looping /clock) makes
   // a mesh due at once (MeshSchedule).
-  if (mesh_pub_.getNumSubscribers() > 0 &&
+  if ((new_stamp || new_frame) && mesh_pub_.getNumSubscribers() > 0 &&
       mesh_schedule_->due(stamp.toSec(), kMeshEarlyFrames * simulation_->options().frameDuration_s())) {
     mesh_pub_.publish(toMeshMarker(*simulation_, frame_id_, stamp));
   }
   if (with_state) publishState(stamp);
-  // Once per stamp: under /use_sim_time roscpp fires a late timer again with no new time when /clock
-  // leaps, and what follows went out twice at one stamp (the spheres' tf then made every tf listener, the
-  // node's own too, log TF_REPEATED_DATA). A replaced scene or state clears it.
-  if (last_published_stamp_ == stamp) return;
+  if (!new_stamp && !new_frame) return;
   last_published_stamp_ = stamp;
+  last_published_frame_ = frame;
   if (colliders_pub_.getNumSubscribers() > 0 && !simulation_->options().colliders.empty()) {
     colliders_pub_.publish(toColliderMarkers(*simulation_, frame_id_, stamp));
   }
-  const auto transforms = toSphereTransforms(*simulation_, frame_id_, stamp);
-  if (!transforms.empty()) tf_broadcaster_.sendTransform(transforms);
+  if (new_stamp) {
+    const auto transforms = toSphereTransforms(*simulation_, frame_id_, stamp);
+    if (!transforms.empty()) tf_broadcaster_.sendTransform(transforms);
+  }
   cameras_->publish(*simulation_, stamp);  // ~points and the cameras, each only while subscribed
   if (mouse_) mouse_->update(*simulation_, frame_id_, stamp);
 }
@@ -520,7 +534,7 @@ bool ClothNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response
   simulation_->reset();
   asleep_ = false;  // frame 0 is computed, not slept through
   grippers_->synchronize();  // a reset lets every gripper go
-  last_published_stamp_.reset();  // the spheres back at their start go out whatever the clock reads
+  forgetPublished();  // the cloth back at its start goes out whatever the clock reads
   reanchor();
   publish(ros::Time::now());
   response.success = true;
@@ -692,7 +706,7 @@ bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::L
   timer_.setPeriod(ros::Duration(simulation_->options().frameDuration_s()));
   last_report_ = core::FrameReport();
   asleep_ = false;
-  last_published_stamp_.reset();  // the loaded colliders and spheres go out with the state, whatever the clock reads
+  forgetPublished();  // the loaded cloth goes out with the state, whatever the clock reads
   reanchor();  // the loaded frame is due now: the run continues from here at the frame rate
   pushConfig();
   publish(ros::Time::now());

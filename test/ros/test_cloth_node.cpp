@@ -23,6 +23,7 @@
 #include <ros/package.h>
 #include <rosgraph_msgs/Clock.h>
 #include <rosgraph_msgs/Log.h>
+#include <sensor_msgs/PointCloud2.h>
 #include <std_srvs/SetBool.h>
 #include <std_srvs/Trigger.h>
 #include <tf2_msgs/TFMessage.h>
@@ -1223,6 +1224,46 @@ TEST(SimTimeTf, TheSpheresTfAndTheCollidersGoOutOncePerStampWhenTheClockLeaps) {
   }, 0.0);
   EXPECT_GE(drawn.size(), static_cast<std::size_t>(kLeaps + 1)) << "~colliders after each leap and the last frame";
   for (const auto& [stamp, times] : drawn) EXPECT_EQ(times, 1) << "~colliders sent " << times << " times at " << stamp;
+}
+
+// A review's: with the once-per-stamp rule above, a ~step under a held /clock (paused, the clock not
+// moving: the deterministic way to drive the node frame by frame) sent only ~state; ~points, ~colliders
+// and ~mesh kept showing the cloth from before the step, and no later tick came to mend it.
+TEST(SimTimeTf, AStepUnderAHeldClockSendsItsNewFrameOnEveryTopic) {
+  ASSERT_TRUE(ros::Time::isSimTime()) << "sim_time_tf.test must set /use_sim_time";
+  ros::NodeHandle nh;
+  Monitor<ClothState> states(nh, nodeTopic("state"));
+  Monitor<sensor_msgs::PointCloud2> points(nh, nodeTopic("points"));
+  Monitor<visualization_msgs::MarkerArray> colliders(nh, nodeTopic("colliders"));
+  Monitor<visualization_msgs::Marker> meshes(nh, nodeTopic("mesh"));
+  ClockDriver clock(nh);
+  ASSERT_TRUE(waitUntil([&] {
+    return states.publisherCount() >= 1 && points.publisherCount() >= 1 && colliders.publisherCount() >= 1 &&
+           meshes.publisherCount() >= 1;
+  }, 15.0)) << "the node publishes no ~state, ~points, ~colliders or ~mesh";
+  std::uint64_t index = 0;
+  const ros::Time held(101, 0);  // after the leaps of the test above, if it ran
+  ASSERT_TRUE(clock.settleAt(held, states, &index)) << "no state stamped with the held clock";
+  std_srvs::SetBool pause;
+  pause.request.data = true;
+  ASSERT_TRUE(callService(nodeTopic("pause"), pause));
+  ASSERT_TRUE(pause.response.success) << pause.response.message;
+  const auto before = points.waitFor([&](const sensor_msgs::PointCloud2& p) { return p.header.stamp == held; }, 10.0);
+  ASSERT_TRUE(before) << "no ~points at the held clock";
+  const std::uint64_t points_seen = points.count();
+  const std::uint64_t colliders_seen = colliders.count();
+  const std::uint64_t meshes_seen = meshes.count();
+  cloth_sim::Step step;
+  step.request.frames = 10;
+  ASSERT_TRUE(callService(nodeTopic("step"), step));
+  ASSERT_TRUE(step.response.success) << step.response.message;
+  const auto after = points.waitFor([&](const sensor_msgs::PointCloud2& p) { return p.data != before->data; }, 10.0,
+                                    points_seen);
+  EXPECT_TRUE(after) << "~points still shows the cloth from before the step";
+  EXPECT_TRUE(colliders.waitForNext(10.0, colliders_seen)) << "no ~colliders after the step";
+  EXPECT_TRUE(meshes.waitForNext(10.0, meshes_seen)) << "no ~mesh after the step";
+  pause.request.data = false;
+  ASSERT_TRUE(callService(nodeTopic("pause"), pause));
 }
 
 TEST(SimTimeTwins, TwoNodeProcessesOnOneClockGiveIdenticalStates) {

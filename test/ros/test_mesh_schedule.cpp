@@ -94,5 +94,15 @@ TEST(MeshSchedule, AfterFramesStopTheScheduleStartsAgainWithoutABurst) {
   EXPECT_NEAR(sent[1] - sent[0], 0.04, 1e-12);  // then the rate, not the missed meshes
 }
 
+TEST(MeshSchedule, ARestartMakesTheNextFrameDueAtTheSameStamp) {
+  cloth_sim::MeshSchedule schedule(25.0);
+  EXPECT_TRUE(schedule.due(1.0, 0.0));
+  EXPECT_FALSE(schedule.due(1.0, 0.0)) << "one mesh per stamp";
+  schedule.restart();
+  EXPECT_TRUE(schedule.due(1.0, 0.0)) << "the cloth changed at the same stamp";
+  EXPECT_FALSE(schedule.due(1.02, 0.0)) << "and the rate counts from it";
+  EXPECT_TRUE(schedule.due(1.04, 0.0));
+}
+
 }  // namespace
 }  // namespace cloth_sim

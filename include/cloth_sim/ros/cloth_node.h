@@ -142,6 +142,9 @@ class ClothNode {
   bool advanceFrames(int frames, bool publish_between = false);
   /// Everything the node publishes each tick; ~state only if `with_state`.
   void publish(const ros::Time& stamp, bool with_state = true);
+  /// After a reset or a replaced scene or state: the next publish sends everything, the mesh too, even at
+  /// a stamp already sent (a held /clock).
+  void forgetPublished();
   /// ~state alone, while someone subscribes and every field is finite; counted for the diagnostics' rate.
   void publishState(const ros::Time& stamp);
   /// The ROS time at which frame `frame` ends (from the anchor), or now if the clock is not anchored yet.
@@ -213,10 +216,11 @@ class ClothNode {
   tf2_ros::Buffer tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::unique_ptr<DepthCameras> cameras_;  ///< ~points and the scene's cameras; after tf_buffer_, which it reads
-  /// The stamp the colliders, the spheres' tf, ~points and the cameras last went out with (once per
-  /// stamp); none since the scene or state was replaced, whose go out at the next publish whatever its
-  /// stamp.
+  /// The stamp and frame the colliders, ~points, the cameras and the mouse's marker last went out with
+  /// (once per stamp and frame; the spheres' tf once per stamp); none since the scene or state was
+  /// replaced or reset, which go out at the next publish whatever its stamp.
   std::optional<ros::Time> last_published_stamp_;
+  std::uint64_t last_published_frame_ = 0;
   FrameInputs frame_inputs_{tf_buffer_};  ///< stamped inputs into frame_id_ (tf-or-drop)
   std::unique_ptr<Grippers> grippers_;   ///< ~attach, ~detach, ~gripper_<id>/wrench; reads frame_inputs_
   std::unique_ptr<FrameColliderInputs> frame_colliders_;  ///< links on tf frames; reads frame_inputs_

@@ -22,6 +22,10 @@ class MeshSchedule {
   /// frames stopped or came slower than the rate): the schedule then starts again from it, rather than
   /// catching up with a burst. A stamp that is not finite is never due.
   bool due(double stamp_s, double early_s);
+  /// The next frame is due whatever its stamp, and the schedule starts again from it: the cloth changed
+  /// while time stood still (a reset, a loaded state or a ~step under a held /clock), and a mesh of
+  /// that stamp was already sent.
+  void restart() { started_ = false; }
 
  private:
   double period_s_;
