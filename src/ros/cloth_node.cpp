@@ -415,7 +415,7 @@ void ClothNode::publish(const ros::Time& stamp, bool with_state) {
   // refuse at a stamp it has. A replaced scene or state, and a reset, clear what was sent.
   const std::uint64_t frame = simulation_->state().frame;
   const bool new_stamp = last_published_stamp_ != stamp;
-  const bool new_frame = !last_published_stamp_ || frame != last_published_frame_;
+  const bool new_frame = frame != last_published_frame_;  // an empty stamp makes new_stamp true anyway
   if (!new_stamp && new_frame) mesh_schedule_->restart();
   // Half a frame early counts as on time (timer jitter); time running backwards (a looping /clock) makes
   // a mesh due at once (MeshSchedule).
