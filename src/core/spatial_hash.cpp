@@ -26,7 +26,7 @@ int SweptPairFinder::cellAt(const CellKey& key) const {
   const std::size_t mask = table_.size() - 1;
   for (std::size_t slot = hashKey(key) & mask; table_[slot] != 0; slot = (slot + 1) & mask) {
     const int cell = table_[slot] - 1;
-    if (cells_[static_cast<std::size_t>(cell)].key == key) return cell;
+    if (sameKey(cells_[static_cast<std::size_t>(cell)].key, key)) return cell;
   }
   return -1;
 }
@@ -55,7 +55,9 @@ bool SweptPairFinder::hashBoxes(double reach_m) {
       span_[axis] = std::max(span_[axis], span[axis]);
     }
     std::size_t slot = hashKey(key) & mask;
-    while (table_[slot] != 0 && cells_[static_cast<std::size_t>(table_[slot] - 1)].key != key) slot = (slot + 1) & mask;
+    while (table_[slot] != 0 && !sameKey(cells_[static_cast<std::size_t>(table_[slot] - 1)].key, key)) {
+      slot = (slot + 1) & mask;
+    }
     if (table_[slot] == 0) {
       cells_.push_back(Cell{key, span, 0, 0});
       table_[slot] = static_cast<int>(cells_.size());

@@ -107,6 +107,8 @@ class SweptPairFinder {
   /// The index in cells_ of the cell with this key, or -1 if no point's low corner is in it.
   int cellAt(const CellKey& key) const;
   static std::uint64_t hashKey(const CellKey& key);
+  /// std::array's == compiles to a call of memcmp, which was 1.5 % of the 64 x 64 fold (perf).
+  static bool sameKey(const CellKey& a, const CellKey& b) { return a[0] == b[0] && a[1] == b[1] && a[2] == b[2]; }
 
   double cell_m_ = 1.0;
   CellKey span_{};                   ///< per axis, the most cells past its own that any box reaches
