@@ -301,6 +301,27 @@ TEST(ClothBenchSolverSweep, RefusesACapThatIsNotACount) {
   EXPECT_NE(output.find("--caps: 'lots'"), std::string::npos) << output;
 }
 
+TEST(ClothBenchTerms, AMaterialScenesTermsAreItsModuliAndEachOneChangesTheCloth) {
+  // A material scene's springs come from its moduli: switching a spring kind off changed nothing (the material
+  // gave it back), and --terms called the drape's springs unused. Its terms are its moduli now, and
+  // self-collision is one where a scene has it.
+  const std::string command = std::string(CLOTH_BENCH_EXECUTABLE) +
+                              " --terms --scene drape --set rows=8 --set cols=8 --set self_collision=true --seconds 0.5"
+                              " --min-timing 0 2>/dev/null";
+  int status = -1;
+  const std::string output = runCommand(command, &status);
+  EXPECT_EQ(status, 0) << command << "\n" << output;
+  EXPECT_EQ(output.find("structural springs"), std::string::npos) << output;
+  for (const std::string term : {"shear (material)", "bending (material, curvature)", "damping (material)"}) {
+    const std::size_t at = output.find(term);
+    ASSERT_NE(at, std::string::npos) << term << "\n" << output;
+    const std::string line = output.substr(at, output.find('\n', at) - at);
+    EXPECT_EQ(line.substr(line.size() - 3), "yes") << line;
+  }
+  // Listed where the scene has it (unused here: the 8 x 8 drape does not touch itself in 0.5 s).
+  EXPECT_NE(output.find("self-collision"), std::string::npos) << output;
+}
+
 TEST(ClothBenchCommandLine, EveryModesHelpPrintsItsUsageAndSucceeds) {
   // `cloth_bench --help` says each mode has a --help of its own: --validate took "--help" for its test's name,
   // and --spatial asked for its --grids first (both exited 2).
