@@ -497,11 +497,10 @@ void ClothNode::onSignalPoll(const ros::WallTimerEvent&) {
 }
 
 void ClothNode::onClockWatch(const ros::WallTimerEvent&) {
-  // roscpp's timer thread notices /clock going backwards only when its two readings of the clock fall on
-  // either side of the jump; otherwise the frame timer waits for the time it expected before the jump
-  // (measured: /clock sent back 5 s from 100.5, then on in 0.02 s steps, and no frame, ~state or warning
-  // for 25 of them in 2 of 3 runs). Re-armed, it fires one frame after the new time, and onTimer counts
-  // frames from there.
+  // roscpp's timer thread does not always notice /clock going backwards, and then the frame timer does not
+  // fire for a while (measured: /clock sent back 5 s from 100.5 after leaps of five frames, then on in
+  // 0.02 s steps, and no frame, ~state or warning for 25 of them in 2 of 3 runs). Re-armed, it fires one
+  // frame after the new time, and onTimer counts frames from there.
   const ros::Time now = ros::Time::now();
   if (now < watched_clock_) timer_.setPeriod(ros::Duration(simulation_->options().frameDuration_s()), true);
   watched_clock_ = now;
