@@ -58,6 +58,10 @@ SOLVER_SCENES = (("hanging", "hanging", False), ("flag", "flag", False), ("relea
 SOLVER_GRIDS = (32, 64)
 SOLVER_SPAN_S = 1.0
 SOLVER_MIN_TIMING_S = 0.5
+# The solver section measures what a tolerance and a cap cost. With the default multigrid preconditioner every
+# solve at these sizes converges within the smallest cap (README, "Capping implicit Euler's solver"), so no cap
+# changes the cloth; the section measures block-Jacobi, where a cap bites, unless --solver-set names another.
+SOLVER_DEFAULT_PRECONDITIONER = "solver_preconditioner=block_jacobi"
 
 REPO_DEFAULT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -156,6 +160,8 @@ def main(argv):
     parser.add_argument("--quick", action="store_true", help="20x20 only, 0.5 s: to try the pipeline (no document)")
     parser.add_argument("--solver-only", action="store_true",
                         help="run only the --solver-sweep runs and print their section of the page on stdout")
+    parser.add_argument("--terms-only", action="store_true",
+                        help="run only the --terms runs and print their section of the page on stdout")
     parser.add_argument("--solver-set", action="append", default=[], metavar="KEY=VALUE",
                         help="a scene key for the --solver-sweep runs (repeatable), e.g. solver_preconditioner=multigrid")
     args = parser.parse_args(argv)
@@ -166,9 +172,17 @@ def main(argv):
     runner = Runner(args.bench, out_dir, args.reuse)
     started = time.monotonic()
     spans = QUICK_SPANS_S if args.quick else PARETO_SPANS_S
+    if args.terms_only:
+        lines = terms_section(run_terms(runner, args.repo, out_dir))
+        lines.insert(1, "_Measured on its own (`scripts/accuracy.py --terms-only`, %.1f minutes) on %s: %s._\n"
+                     % (runner.total_s / 60.0, datetime.date.today().isoformat(), machine_line()))
+        print("\n".join(lines))
+        print("```\n%s\n```" % "\n".join(runner.commands))
+        log("accuracy: --terms-only done in %.1f min" % (runner.total_s / 60.0))
+        return 0
     if args.solver_only:
-        solver = run_solver_sweeps(runner, out_dir, args.solver_set)
-        lines = solver_section(solver, args.solver_set)
+        solver = run_solver_sweeps(runner, out_dir, solver_keys(args.solver_set))
+        lines = solver_section(solver, solver_keys(args.solver_set))
         lines.insert(1, "_Measured on its own (`scripts/accuracy.py --solver-only`, %.1f minutes) on %s: %s._\n"
                      % (runner.total_s / 60.0, datetime.date.today().isoformat(), machine_line()))
         print("\n".join(lines))
@@ -218,25 +232,80 @@ def main(argv):
                                                   os.path.join(images, "accuracy_stability.png")])
     stability_rows = read_csv(stability_csv)[1]
 
+    terms = run_terms(runner, args.repo, out_dir)
+
+    solver = run_solver_sweeps(runner, out_dir, solver_keys(args.solver_set))
+
+    elapsed_min = runner.total_s / 60.0
+    document = write_document(args.repo, pareto, realtime, spatial, stability_rows, stability_text, terms,
+                              solver_section(solver, solver_keys(args.solver_set)), runner.commands, elapsed_min)
+    path = os.path.join(args.repo, "doc", "ACCURACY.md")
+    with open(path, "w") as f:
+        f.write(document)
+    log("accuracy: wrote %s and doc/images/accuracy_*.png in %.1f min" % (path, elapsed_min))
+    return 0
+
+
+def run_terms(runner, repo, out_dir):
+    """{scene: (rows, first line)} of cloth_bench --terms on every built-in scene."""
     terms = {}
-    scenes_dir = os.path.join(args.repo, "config", "scenes")
+    scenes_dir = os.path.join(repo, "config", "scenes")
     for path in sorted(glob.glob(os.path.join(scenes_dir, "*.yaml"))):
         scene = os.path.splitext(os.path.basename(path))[0]
         csv_path = os.path.join(out_dir, "terms_%s.csv" % scene)
         text = runner.run("terms_%s" % scene, ["--terms", "--scene", scene, "--seconds", str(TERMS_SPAN_S),
                                                "--csv", csv_path])
         terms[scene] = (read_csv(csv_path)[1], text.splitlines()[0] if text else "")
+    return terms
 
-    solver = run_solver_sweeps(runner, out_dir, args.solver_set)
 
-    elapsed_min = runner.total_s / 60.0
-    document = write_document(args.repo, pareto, realtime, spatial, stability_rows, stability_text, terms,
-                              solver_section(solver, args.solver_set), runner.commands, elapsed_min)
-    path = os.path.join(args.repo, "doc", "ACCURACY.md")
-    with open(path, "w") as f:
-        f.write(document)
-    log("accuracy: wrote %s and doc/images/accuracy_*.png in %.1f min" % (path, elapsed_min))
-    return 0
+def terms_section(terms):
+    """The page's section on each term's cost and effect, as a list of lines."""
+    out = []
+    w = out.append
+    w("## Model only what a scene needs: each term's cost and effect\n")
+    w("`cloth_bench --terms --scene NAME --seconds %s`: the scene as shipped (its own integrator and substeps), "
+      "then with each of its force and collider terms switched off in turn: CPU per frame (best of up to 5 "
+      "runs) and the largest change of any particle's position in any frame. A term whose removal changes "
+      "nothing (< 1e-9 m) is carried but unused, or unused in the span: the `fold` and `robot` scenes lie still "
+      "as shipped, waiting for what drives them (the fold's hands on `~grasp`, the robot). A scene with a "
+      "`material` has its springs from the material's moduli: its shear, bending and damping are switched off "
+      "there (a modulus set to 0), not spring kind by spring kind.\n" % fmt(TERMS_SPAN_S))
+    w("| scene | ms/frame, all terms | term switched off | ms/frame without it | saves ms | max change m | used |")
+    w("|---|---:|---|---:|---:|---:|---|")
+    unused = []
+    stopped_runs = []
+    for scene, (rows, _) in sorted(terms.items()):
+        for row in rows:
+            used = row["used"] == "1"
+            if not used:
+                unused.append("%s: %s" % (scene, row["term"]))
+            stopped = row.get("stopped", "")
+            if stopped:
+                stopped_runs.append("%s without %s: %s" % (scene, row["term"], stopped))
+            w("| %s | %s | %s | %s | %s | %s | %s |" % (
+                scene, fmt(float(row["ms_per_frame_all"]), 3), row["term"], fmt(float(row["ms_per_frame_without"]), 3),
+                fmt(float(row["ms_per_frame_all"]) - float(row["ms_per_frame_without"]), 2),
+                fmt(float(row["max_change_m"])), ("yes" if used else "**no**") + (" (stopped, below)" if stopped else "")))
+    w("")
+    w("A negative saving is real, not noise alone: with `substeps: auto` and implicit Euler's iterative solve "
+      "a frame's cost is not the sum of its terms. Switching a term off changes how many CG iterations each "
+      "solve needs and which frames the guard accepts; a run the guard stopped (a rolled-back frame) is timed "
+      "over the frames it ran, with its retries.\n")
+    if stopped_runs:
+        w("Runs that stopped before the span's end (a rolled-back frame, or a strain past 1000 %%): %s.\n" % "; ".join(stopped_runs))
+    if unused:
+        w("Terms carried but unused over %s s: %s.\n" % (fmt(TERMS_SPAN_S), "; ".join(unused)))
+    else:
+        w("Every term of every built-in scene changes its cloth within %s s.\n" % fmt(TERMS_SPAN_S))
+    return out
+
+
+def solver_keys(given):
+    """The scene keys of the --solver-sweep runs: --solver-set's, and block-Jacobi unless they name a preconditioner."""
+    if any(key.startswith("solver_preconditioner=") for key in given):
+        return list(given)
+    return [SOLVER_DEFAULT_PRECONDITIONER] + list(given)
 
 
 def run_solver_sweeps(runner, out_dir, extra_keys):
@@ -335,10 +404,18 @@ def solver_section(solver, extra_keys):
       "2.5 to 3.8 mm at 64x64: that is the scene's sensitivity, not the solve's error. Compare strains and the "
       "capped rows' centimetres there, or run a shorter `--seconds` to see the solve's own error. The flag at "
       "64x64 is the extreme: even its 1e-9 and 1e-12 solves end millimetres apart.\n")
-    w("With another preconditioner (once `solver_preconditioner` exists): `scripts/accuracy.py --bench PATH "
-      "--solver-only --solver-set solver_preconditioner=multigrid` prints this section for it (`make accuracy "
-      "ACCURACY_ARGS=\"--solver-set ...\"` for the whole page); every `--set` applies to the reference and to each "
-      "setting alike.\n")
+    if SOLVER_DEFAULT_PRECONDITIONER in extra_keys:
+        w("**Which preconditioner.** These runs take `%s`, the default before multigrid: with the default "
+          "`multigrid` the hanging and released-flat cloths' solves at 64x64 all converge within a cap of 10, so a "
+          "cap there changes nothing and the tolerance is the only knob (README, \"Capping implicit Euler's "
+          "solver\"). `scripts/accuracy.py --bench PATH --solver-only --solver-set "
+          "solver_preconditioner=multigrid` prints this section for multigrid (`make accuracy "
+          "ACCURACY_ARGS=\"--solver-set ...\"` for the whole page); every `--set` applies to the reference and to "
+          "each setting alike.\n" % SOLVER_DEFAULT_PRECONDITIONER)
+    else:
+        w("**Which preconditioner.** These runs take the scene keys above; without `--solver-set` naming one, "
+          "scripts/accuracy.py measures `%s`. Every `--set` applies to the reference and to each setting alike.\n"
+          % SOLVER_DEFAULT_PRECONDITIONER)
     return out
 
 
@@ -544,39 +621,7 @@ def write_document(repo, pareto, realtime, spatial, stability_rows, stability_te
       "the scenes' default damping an 80x80 cloth has c near 3e4 /s, so every explicit method needs h below "
       "about 1e-4 s (200+ substeps per frame): the reason they all diverge at 64 substeps or fewer there.\n")
 
-    # ---- terms ----
-    w("## Model only what a scene needs: each term's cost and effect\n")
-    w("`cloth_bench --terms --scene NAME --seconds %s`: the scene as shipped (its own integrator and substeps), "
-      "then with each of its force and collider terms switched off in turn: CPU per frame (best of up to 5 "
-      "runs) and the largest change of any particle's position in any frame. A term whose removal changes "
-      "nothing (< 1e-9 m) is carried but unused.\n" % fmt(TERMS_SPAN_S))
-    w("| scene | ms/frame, all terms | term switched off | ms/frame without it | saves ms | max change m | used |")
-    w("|---|---:|---|---:|---:|---:|---|")
-    unused = []
-    stopped_runs = []
-    for scene, (rows, _) in sorted(terms.items()):
-        for row in rows:
-            used = row["used"] == "1"
-            if not used:
-                unused.append("%s: %s" % (scene, row["term"]))
-            stopped = row.get("stopped", "")
-            if stopped:
-                stopped_runs.append("%s without %s: %s" % (scene, row["term"], stopped))
-            w("| %s | %s | %s | %s | %s | %s | %s |" % (
-                scene, fmt(float(row["ms_per_frame_all"]), 3), row["term"], fmt(float(row["ms_per_frame_without"]), 3),
-                fmt(float(row["ms_per_frame_all"]) - float(row["ms_per_frame_without"]), 2),
-                fmt(float(row["max_change_m"])), ("yes" if used else "**no**") + (" (stopped, below)" if stopped else "")))
-    w("")
-    w("A negative saving is real, not noise alone: with `substeps: auto` and implicit Euler's iterative solve "
-      "a frame's cost is not the sum of its terms. Switching a term off changes how many CG iterations each "
-      "solve needs and which frames the guard accepts; a run the guard stopped (a rolled-back frame) is timed "
-      "over the frames it ran, with its retries.\n")
-    if stopped_runs:
-        w("Runs that stopped at a rolled-back frame: %s.\n" % "; ".join(stopped_runs))
-    if unused:
-        w("Terms carried but unused over %s s: %s.\n" % (fmt(TERMS_SPAN_S), "; ".join(unused)))
-    else:
-        w("Every term of every built-in scene changes its cloth within %s s.\n" % fmt(TERMS_SPAN_S))
+    out.extend(terms_section(terms))
 
     out.extend(solver_lines)
 

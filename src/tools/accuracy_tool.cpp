@@ -2,12 +2,16 @@
 // its own file (accuracy_modes.h).
 #include "accuracy_tool.h"
 
+#include "accuracy.h"
 #include "accuracy_modes.h"
 #include "bench_common.h"
 #include "solver_sweep.h"
 
 #include "cloth_sim/core/options.h"
 
+#include <unistd.h>
+
+#include <algorithm>
 #include <exception>
 #include <iostream>
 #include <optional>
@@ -96,32 +100,117 @@ std::optional<GridSize> parseGrid(const std::string& text) {
   return GridSize{*rows, *cols};
 }
 
+const char* modeFlag(Mode mode) {
+  switch (mode) {
+    case Mode::kAccuracy: return kAccuracyFlag;
+    case Mode::kSpatial: return kSpatialFlag;
+    case Mode::kStabilityMap: return kStabilityMapFlag;
+    case Mode::kTerms: return kTermsFlag;
+    case Mode::kSolverSweep: return kSolverSweepFlag;
+  }
+  return kAccuracyFlag;
+}
+
+/// The options a mode reads besides the scene's (--scene, --scenes-dir, --set, --dynamic), as its usage lists
+/// them: any other is refused, not ignored (a --seconds given to --stability-map changed nothing).
+const std::vector<std::string>& modeOptions(Mode mode) {
+  static const std::vector<std::string> accuracy = {
+      "--grid", "--seconds", "--max-error", "--realtime", "--csv", "--png", "--integrators", "--substeps-list",
+      "--reference-budget", "--reference-tolerance", "--min-timing", "--tolerances", "--caps",
+      "--reference-solver-tolerance", "--no-solver-sweep"};
+  static const std::vector<std::string> spatial = {"--seconds", "--grids", "--csv", "--reference-budget",
+                                                   "--reference-tolerance"};
+  static const std::vector<std::string> stability_map = {"--grid", "--csv", "--png", "--integrators"};
+  static const std::vector<std::string> terms = {"--grid", "--seconds", "--csv", "--min-timing"};
+  static const std::vector<std::string> solver_sweep = {"--grid", "--seconds", "--tolerances", "--caps",
+                                                        "--reference-solver-tolerance", "--max-error", "--csv",
+                                                        "--min-timing"};
+  switch (mode) {
+    case Mode::kAccuracy: return accuracy;
+    case Mode::kSpatial: return spatial;
+    case Mode::kStabilityMap: return stability_map;
+    case Mode::kTerms: return terms;
+    case Mode::kSolverSweep: return solver_sweep;
+  }
+  return accuracy;
+}
+
+/// Whether a file can be written at `path` (its folder exists and is writable, and the file, if there, is
+/// too): checked before a run that may take minutes, rather than after it.
+bool writable(const std::string& path) {
+  const std::size_t slash = path.find_last_of('/');
+  const std::string folder = slash == std::string::npos ? "." : (slash == 0 ? "/" : path.substr(0, slash));
+  if (access(path.c_str(), F_OK) == 0) return access(path.c_str(), W_OK) == 0;
+  return access(folder.c_str(), W_OK | X_OK) == 0;
+}
+
+/// What the flags given say together, checked once they are all read (not with --help).
+void checkCombination(const ToolOptions& options, const std::vector<std::string>& modes_given,
+                      const std::vector<std::string>& flags_given, std::vector<std::string>* errors) {
+  if (modes_given.size() > 1) {
+    std::string modes;
+    for (const std::string& mode : modes_given) modes += (modes.empty() ? "" : " and ") + mode;
+    errors->push_back(modes + ": one mode at a time");
+    return;
+  }
+  const std::vector<std::string>& allowed = modeOptions(options.mode);
+  for (const std::string& flag : flags_given) {
+    if (std::find(allowed.begin(), allowed.end(), flag) == allowed.end()) {
+      errors->push_back(flag + ": not an option of " + modeFlag(options.mode) + " (see --help)");
+    }
+  }
+  const auto given = [&](const char* flag) {
+    return std::find(flags_given.begin(), flags_given.end(), flag) != flags_given.end();
+  };
+  if (options.mode == Mode::kAccuracy && given("--max-error") && given("--realtime")) {
+    errors->push_back("--max-error and --realtime: the recommendation is one or the other");
+  }
+  for (const auto& [flag, path] : {std::pair<const char*, std::string>{"--csv", options.csv_path},
+                                   std::pair<const char*, std::string>{"--png", options.png_path}}) {
+    if (given(flag) && (path.empty() || !writable(path))) {
+      errors->push_back(std::string(flag) + " " + path + ": cannot write there");
+    }
+  }
+  if (options.mode == Mode::kSpatial && options.grids.size() < 2) {
+    errors->push_back("--spatial needs --grids with at least two grids, coarse first (e.g. 20x20,39x39,77x77)");
+  } else if (options.mode == Mode::kSpatial) {
+    const GridSize& finest = options.grids.back();
+    for (std::size_t g = 0; g + 1 < options.grids.size(); ++g) {
+      const GridSize& grid = options.grids[g];
+      const GridSize& next = options.grids[g + 1];
+      const std::string name = std::to_string(grid.rows) + "x" + std::to_string(grid.cols);
+      if (!(grid.rows < next.rows && grid.cols < next.cols)) {
+        errors->push_back("--grids: " + name + " is not coarser than the grid after it (coarse first)");
+      } else if (nestedParticleMap(grid.rows, grid.cols, finest.rows, finest.cols).empty()) {
+        errors->push_back("--grids: " + name + " does not nest in the finest, " + std::to_string(finest.rows) + "x" +
+                          std::to_string(finest.cols) + " (its rows - 1 and cols - 1 must divide the finest's)");
+      }
+    }
+  }
+}
+
 void parseToolCommandLine(int argc, char** argv, ToolOptions* options, std::vector<std::string>* errors) {
+  std::vector<std::string> modes_given;  // in the order given
+  std::vector<std::string> flags_given;  // every other option, but the scene's
   for (int i = 1; i < argc; ++i) {
     const std::string flag = argv[i];
     if (flag == "--help" || flag == "-h") {
       options->help = true;
       continue;
     }
-    if (flag == kAccuracyFlag) {
-      options->mode = Mode::kAccuracy;
+    const std::vector<std::pair<const char*, Mode>> modes = {{kAccuracyFlag, Mode::kAccuracy},
+                                                             {kSpatialFlag, Mode::kSpatial},
+                                                             {kStabilityMapFlag, Mode::kStabilityMap},
+                                                             {kTermsFlag, Mode::kTerms},
+                                                             {kSolverSweepFlag, Mode::kSolverSweep}};
+    const auto mode = std::find_if(modes.begin(), modes.end(), [&](const auto& m) { return flag == m.first; });
+    if (mode != modes.end()) {
+      options->mode = mode->second;
+      if (std::find(modes_given.begin(), modes_given.end(), flag) == modes_given.end()) modes_given.push_back(flag);
       continue;
     }
-    if (flag == kSpatialFlag) {
-      options->mode = Mode::kSpatial;
-      continue;
-    }
-    if (flag == kStabilityMapFlag) {
-      options->mode = Mode::kStabilityMap;
-      continue;
-    }
-    if (flag == kTermsFlag) {
-      options->mode = Mode::kTerms;
-      continue;
-    }
-    if (flag == kSolverSweepFlag) {
-      options->mode = Mode::kSolverSweep;
-      continue;
+    if (flag != "--scene" && flag != "--scenes-dir" && flag != "--set" && flag != "--dynamic") {
+      flags_given.push_back(flag);
     }
     if (flag == "--realtime") {
       options->realtime = true;
@@ -140,6 +229,11 @@ void parseToolCommandLine(int argc, char** argv, ToolOptions* options, std::vect
       break;
     }
     const std::string value = argv[++i];
+    // A list option given nothing but commas would silently keep its default (or run nothing).
+    const auto some = [&](const std::vector<std::string>& items) {
+      if (items.empty()) errors->push_back(flag + " " + value + ": an empty list");
+      return items;
+    };
     const auto positive = [&](double* out) {
       const std::optional<double> number = parseDouble(value);
       if (!number || *number <= 0) {
@@ -158,7 +252,7 @@ void parseToolCommandLine(int argc, char** argv, ToolOptions* options, std::vect
       options->grid = parseGrid(value);
       if (!options->grid) errors->push_back("--grid " + value + ": expected ROWSxCOLS, each >= 2");
     } else if (flag == "--grids") {
-      for (const std::string& item : splitList(value)) {
+      for (const std::string& item : some(splitList(value))) {
         const std::optional<GridSize> grid = parseGrid(item);
         if (!grid) {
           errors->push_back("--grids " + value + ": expected ROWSxCOLS,ROWSxCOLS,...");
@@ -167,7 +261,12 @@ void parseToolCommandLine(int argc, char** argv, ToolOptions* options, std::vect
         options->grids.push_back(*grid);
       }
     } else if (flag == "--seconds") {
-      positive(&options->seconds);
+      const std::optional<double> number = parseDouble(value);
+      if (!number || !(*number > 0.0) || *number > kMaxSpan_s) {
+        errors->push_back(flag + " " + value + ": expected a number of seconds in (0, " + std::to_string(static_cast<long>(kMaxSpan_s)) + "]");
+      } else {
+        options->seconds = *number;
+      }
     } else if (flag == "--max-error") {
       positive(&options->max_error_m);
     } else if (flag == "--reference-budget") {
@@ -184,7 +283,7 @@ void parseToolCommandLine(int argc, char** argv, ToolOptions* options, std::vect
       options->png_path = value;
     } else if (flag == "--integrators") {
       options->integrators.clear();
-      for (const std::string& name : splitList(value)) {
+      for (const std::string& name : some(splitList(value))) {
         core::IntegratorKind kind;
         if (!core::parseIntegratorName(name, &kind)) {
           errors->push_back("--integrators: unknown '" + name + "' (known: " + core::integratorNameList() + ")");
@@ -194,7 +293,7 @@ void parseToolCommandLine(int argc, char** argv, ToolOptions* options, std::vect
       }
     } else if (flag == "--substeps-list") {
       options->substep_counts.clear();
-      for (const std::string& item : splitList(value)) {
+      for (const std::string& item : some(splitList(value))) {
         const std::optional<int> count = parseInt(item);
         if (!count || *count < 1 || *count > core::OptionLimits::kMaxSubsteps) {
           errors->push_back("--substeps-list: '" + item + "' is not a substep count in [1, 10000]");
@@ -203,7 +302,7 @@ void parseToolCommandLine(int argc, char** argv, ToolOptions* options, std::vect
         }
       }
     } else if (flag == "--tolerances") {
-      for (const std::string& item : splitList(value)) {
+      for (const std::string& item : some(splitList(value))) {
         const std::optional<double> tolerance = parseDouble(item);
         if (!tolerance || *tolerance < core::OptionLimits::kMinSolverTolerance || *tolerance > 1.0) {
           errors->push_back("--tolerances: '" + item + "' is not a solver tolerance in [1e-14, 1]");
@@ -212,7 +311,7 @@ void parseToolCommandLine(int argc, char** argv, ToolOptions* options, std::vect
         }
       }
     } else if (flag == "--caps") {
-      for (const std::string& item : splitList(value)) {
+      for (const std::string& item : some(splitList(value))) {
         const std::optional<int> cap =
             item == kNoCapName ? std::optional<int>(kUncappedSolverIterations) : parseInt(item);
         if (!cap || *cap < 1 || *cap > kUncappedSolverIterations) {
@@ -232,9 +331,7 @@ void parseToolCommandLine(int argc, char** argv, ToolOptions* options, std::vect
       errors->push_back("unknown option '" + flag + "' (see --help)");
     }
   }
-  if (options->mode == Mode::kSpatial && options->grids.size() < 2) {
-    errors->push_back("--spatial needs --grids with at least two grids, coarse first (e.g. 20x20,39x39,77x77)");
-  }
+  if (!options->help) checkCombination(*options, modes_given, flags_given, errors);
 }
 
 }  // namespace

@@ -23,6 +23,9 @@ namespace cloth_sim::bench {
 constexpr int kExitOk = 0;
 constexpr int kExitRunFailed = 1;  ///< the run itself failed (a bug, out of memory, an output not written)
 constexpr int kExitUsage = 2;      ///< bad flag, unknown key, invalid value
+/// The longest simulated span a measuring mode takes (--seconds), s: 500,000 frames at 50 Hz, longer than any
+/// measurement here finishes, and a frame count an int holds at any frame rate (at most 1000 Hz).
+constexpr double kMaxSpan_s = 1e4;
 
 // ---- command-line numbers: the whole text must be the number -------------------------------------------------------
 

@@ -20,10 +20,28 @@ struct Term {
   std::function<void(core::SceneOptions*)> switch_off;
 };
 
+/// A material scene's own terms: its springs and bending come from the material's moduli for the grid
+/// (core::resolveMaterial), which would give them back if a spring kind were switched off, so these switch
+/// off the moduli that may be zero (the stretch modulus may not: without it there is no cloth).
+void addMaterialTerms(const core::SceneOptions& scene, std::vector<Term>* terms) {
+  const core::MaterialOptions& material = scene.material;
+  if (material.shear_modulus_N_per_m > 0.0) {
+    terms->push_back({"shear (material)", [](core::SceneOptions* s) { s->material.shear_modulus_N_per_m = 0.0; }});
+  }
+  if (material.bending_rigidity_N_m > 0.0) {
+    terms->push_back({std::string("bending (material, ") + core::bendModelName(scene.bend_model) + ")",
+                      [](core::SceneOptions* s) { s->material.bending_rigidity_N_m = 0.0; }});
+  }
+  if (material.damping_s > 0.0) {
+    terms->push_back({"damping (material)", [](core::SceneOptions* s) { s->material.damping_s = 0.0; }});
+  }
+}
+
 /// The force and collider terms the scene has switched on.
 std::vector<Term> termsOf(const core::SceneOptions& scene) {
   std::vector<Term> terms;
-  for (int k = 0; k < core::kSpringKindCount; ++k) {
+  if (scene.has_material) addMaterialTerms(scene, &terms);
+  for (int k = 0; k < core::kSpringKindCount && !scene.has_material; ++k) {
     const core::SpringOptions& spring = scene.springs[k];
     if (!spring.enabled || (spring.stiffness_N_per_m == 0.0 && spring.damping_N_s_per_m == 0.0)) continue;
     const std::string kind = core::springKindName(static_cast<core::SpringKind>(k));
@@ -39,6 +57,9 @@ std::vector<Term> termsOf(const core::SceneOptions& scene) {
     terms.push_back({"air damping", [](core::SceneOptions* s) { s->air_damping_N_s_per_m = 0.0; }});
   }
   if (scene.wind_enabled) terms.push_back({"wind", [](core::SceneOptions* s) { s->wind_enabled = false; }});
+  if (scene.self_collision.enabled) {
+    terms.push_back({"self-collision", [](core::SceneOptions* s) { s->self_collision.enabled = false; }});
+  }
   for (std::size_t i = 0; i < scene.colliders.planes.size(); ++i) {
     terms.push_back({"plane " + std::to_string(i), [i](core::SceneOptions* s) {
                        s->colliders.planes.erase(s->colliders.planes.begin() + static_cast<long>(i));
@@ -98,7 +119,7 @@ int runTerms(const ToolOptions& options, const core::SceneOptions& scene) {
               << std::setw(12) << formatNumber(baseline_ms - ms) << std::setw(16) << formatNumber(change.max_m)
               << "  " << (used ? "yes" : "NO: switching it off changes nothing")
               << (run.diverged ? " (without it: " + run.stopped + ")" : "") << "\n";
-    csv << scene.name << "," << term.name << "," << baseline_ms << "," << ms << "," << change.max_m << ","
+    csv << csvField(scene.name) << "," << csvField(term.name) << "," << baseline_ms << "," << ms << "," << change.max_m << ","
         << change.rms_m << "," << (used ? 1 : 0) << "," << run.frames_run << "," << csvField(run.stopped) << "\n";
   }
   if (!writeCsvText(options, csv.str())) return kExitRunFailed;

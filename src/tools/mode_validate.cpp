@@ -253,7 +253,8 @@ void parse(int argc, char** argv, ValidateOptions* options, std::vector<std::str
       return argv[++i];
     };
     if (flag == kValidateFlag) {
-      options->test = value();
+      // The test's name, unless an option follows at once (`--validate --help`).
+      if (i + 1 < argc && std::string(argv[i + 1]).rfind("--", 0) != 0) options->test = argv[++i];
     } else if (flag == "--material") {
       options->material = value();
     } else if (flag == "--bend-model") {
@@ -275,8 +276,8 @@ void parse(int argc, char** argv, ValidateOptions* options, std::vector<std::str
     } else if (flag == "--seconds") {
       const std::string text = value();
       const std::optional<double> s = parseDouble(text);
-      if (!s || *s <= 0.0 || *s > core::OptionLimits::kMaxPeriod_s) {
-        errors->push_back("--seconds " + text + ": a positive number of seconds");
+      if (!s || !(*s > 0.0) || *s > kMaxSpan_s) {
+        errors->push_back("--seconds " + text + ": a number of seconds in (0, " + number(kMaxSpan_s) + "]");
       } else {
         options->seconds = *s;
       }
@@ -292,7 +293,8 @@ void parse(int argc, char** argv, ValidateOptions* options, std::vector<std::str
   }
   if (!options->help && options->test != "cantilever" && options->test != "drape" && options->test != "hanging" &&
       options->test != "cusick") {
-    errors->push_back("--validate " + options->test + ": cantilever, drape, hanging or cusick");
+    errors->push_back(options->test.empty() ? "--validate needs a test: cantilever, drape, hanging or cusick"
+                                            : "--validate " + options->test + ": cantilever, drape, hanging or cusick");
   }
 }
 

@@ -301,5 +301,66 @@ TEST(ClothBenchSolverSweep, RefusesACapThatIsNotACount) {
   EXPECT_NE(output.find("--caps: 'lots'"), std::string::npos) << output;
 }
 
+TEST(ClothBenchTerms, AMaterialScenesTermsAreItsModuliAndEachOneChangesTheCloth) {
+  // A material scene's springs come from its moduli: switching a spring kind off changed nothing (the material
+  // gave it back), and --terms called the drape's springs unused. Its terms are its moduli now, and
+  // self-collision is one where a scene has it.
+  const std::string command = std::string(CLOTH_BENCH_EXECUTABLE) +
+                              " --terms --scene drape --set rows=8 --set cols=8 --set self_collision=true --seconds 0.5"
+                              " --min-timing 0 2>/dev/null";
+  int status = -1;
+  const std::string output = runCommand(command, &status);
+  EXPECT_EQ(status, 0) << command << "\n" << output;
+  EXPECT_EQ(output.find("structural springs"), std::string::npos) << output;
+  for (const std::string term : {"shear (material)", "bending (material, curvature)", "damping (material)"}) {
+    const std::size_t at = output.find(term);
+    ASSERT_NE(at, std::string::npos) << term << "\n" << output;
+    const std::string line = output.substr(at, output.find('\n', at) - at);
+    EXPECT_EQ(line.substr(line.size() - 3), "yes") << line;
+  }
+  // Listed where the scene has it (unused here: the 8 x 8 drape does not touch itself in 0.5 s).
+  EXPECT_NE(output.find("self-collision"), std::string::npos) << output;
+}
+
+TEST(ClothBenchCommandLine, EveryModesHelpPrintsItsUsageAndSucceeds) {
+  // `cloth_bench --help` says each mode has a --help of its own: --validate took "--help" for its test's name,
+  // and --spatial asked for its --grids first (both exited 2).
+  for (const std::string mode : {"--accuracy", "--spatial", "--stability-map", "--terms", "--solver-sweep", "--validate"}) {
+    const std::string command = std::string(CLOTH_BENCH_EXECUTABLE) + " " + mode + " --help 2>&1";
+    int status = -1;
+    const std::string output = runCommand(command, &status);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << command << "\n" << output;
+    EXPECT_EQ(output.rfind("usage:", 0), 0u) << command << "\n" << output;
+  }
+}
+
+TEST(ClothBenchCommandLine, RefusesWhatItWouldIgnoreMisreadOrRunForever) {
+  // Each was accepted before (exit 0, or a run of 700 million frames), found by an audit of the tools against
+  // their usage (doc/RELIABILITY.md, "Found on 2026-11-27, last").
+  const std::vector<std::pair<std::string, std::string>> refused = {
+      {"--solver-sweep --seconds 1e8", "--seconds 1e8: expected a number of seconds in (0, 10000]"},
+      {"--accuracy --seconds 1e9", "--seconds 1e9: expected a number of seconds in (0, 10000]"},
+      {"--validate cantilever --seconds 1e9", "--seconds 1e9: a number of seconds in (0, 10000]"},
+      {"--accuracy --solver-sweep", "--accuracy and --solver-sweep: one mode at a time"},
+      {"--accuracy --max-error 1e-9 --realtime", "--max-error and --realtime"},
+      {"--accuracy --integrators ,", "--integrators ,: an empty list"},
+      {"--solver-sweep --caps ,", "--caps ,: an empty list"},
+      {"--stability-map --seconds 3", "--seconds: not an option of --stability-map"},
+      {"--terms --png terms.png", "--png: not an option of --terms"},
+      {"--accuracy --csv /nonexistent-folder/x.csv", "--csv /nonexistent-folder/x.csv: cannot write there"},
+      {"--spatial --grids 39x39,20x20", "--grids: 39x39 is not coarser than the grid after it"},
+      {"--spatial --grids 20x20,20x20", "--grids: 20x20 is not coarser than the grid after it"},
+      {"--spatial --grids 20x20,30x30", "--grids: 20x20 does not nest in the finest, 30x30"},
+      {"--validate", "--validate needs a test"},
+  };
+  for (const auto& [arguments, message] : refused) {
+    const std::string command = std::string(CLOTH_BENCH_EXECUTABLE) + " " + arguments + " 2>&1";
+    int status = -1;
+    const std::string output = runCommand(command, &status);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << command << "\n" << output;
+    EXPECT_NE(output.find(message), std::string::npos) << command << "\n" << output;
+  }
+}
+
 }  // namespace
 }  // namespace cloth_sim::bench

@@ -100,6 +100,8 @@ class ClothNode {
   static constexpr std::uint32_t kGraspSubscriberQueue = 1000;
   /// How often the spin thread looks whether SIGINT or SIGTERM came (it answers a pending ~step first).
   static constexpr double kSignalPoll_s = 0.05;
+  /// How often, under /use_sim_time, the spin thread looks whether /clock went backwards, wall seconds.
+  static constexpr double kClockWatch_s = 0.05;
 
   ClothNode(const ros::NodeHandle& node_handle, const ros::NodeHandle& private_handle);
 
@@ -160,6 +162,8 @@ class ClothNode {
   /// On the spin thread: after SIGINT or SIGTERM, answers the ~step in progress, then asks roscpp to shut
   /// down from the step service's thread, so that the answer is on the wire before the node leaves.
   void onSignalPoll(const ros::WallTimerEvent& event);
+  /// Re-arms the frame timer when /clock went backwards (see kClockWatch_s).
+  void onClockWatch(const ros::WallTimerEvent& event);
   bool onReset(std_srvs::Trigger::Request& request, std_srvs::Trigger::Response& response);
   bool onPause(std_srvs::SetBool::Request& request, std_srvs::SetBool::Response& response);
   /// On the step thread: hands the request to the spin thread and waits for its answer.
@@ -206,6 +210,8 @@ class ClothNode {
   ros::ServiceServer save_state_srv_, load_state_srv_;
   ros::Timer timer_;
   ros::WallTimer signal_timer_;
+  ros::WallTimer clock_watch_timer_;  ///< only under /use_sim_time
+  ros::Time watched_clock_;           ///< the time onClockWatch last read
   bool shutdown_begun_ = false;
   /// ~grasp is received on its own queue and thread, into grasp_commands_ (see kGraspSubscriberQueue).
   ros::CallbackQueue grasp_receive_queue_;
