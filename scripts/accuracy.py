@@ -173,22 +173,10 @@ def main(argv):
     started = time.monotonic()
     spans = QUICK_SPANS_S if args.quick else PARETO_SPANS_S
     if args.terms_only:
-        lines = terms_section(run_terms(runner, args.repo, out_dir))
-        lines.insert(1, "_Measured on its own (`scripts/accuracy.py --terms-only`, %.1f minutes) on %s: %s._\n"
-                     % (runner.total_s / 60.0, datetime.date.today().isoformat(), machine_line()))
-        print("\n".join(lines))
-        print("```\n%s\n```" % "\n".join(runner.commands))
-        log("accuracy: --terms-only done in %.1f min" % (runner.total_s / 60.0))
-        return 0
+        return print_section_alone(runner, "--terms-only", terms_section(run_terms(runner, args.repo, out_dir)))
     if args.solver_only:
         solver = run_solver_sweeps(runner, out_dir, solver_keys(args.solver_set))
-        lines = solver_section(solver, solver_keys(args.solver_set))
-        lines.insert(1, "_Measured on its own (`scripts/accuracy.py --solver-only`, %.1f minutes) on %s: %s._\n"
-                     % (runner.total_s / 60.0, datetime.date.today().isoformat(), machine_line()))
-        print("\n".join(lines))
-        print("```\n%s\n```" % "\n".join(runner.commands))
-        log("accuracy: --solver-only done in %.1f min" % (runner.total_s / 60.0))
-        return 0
+        return print_section_alone(runner, "--solver-only", solver_section(solver, solver_keys(args.solver_set)))
 
     # ---- Pareto fronts -------------------------------------------------------------------------------------------
     pareto = {}  # (scene, side) -> (metadata, rows, stdout)
@@ -243,6 +231,16 @@ def main(argv):
     with open(path, "w") as f:
         f.write(document)
     log("accuracy: wrote %s and doc/images/accuracy_*.png in %.1f min" % (path, elapsed_min))
+    return 0
+
+
+def print_section_alone(runner, flag, lines):
+    """Prints one section of the page (for --terms-only, --solver-only) with its date and commands; returns 0."""
+    lines.insert(1, "_Measured on its own (`scripts/accuracy.py %s`, %.1f minutes) on %s: %s._\n"
+                 % (flag, runner.total_s / 60.0, datetime.date.today().isoformat(), machine_line()))
+    print("\n".join(lines))
+    print("```\n%s\n```" % "\n".join(runner.commands))
+    log("accuracy: %s done in %.1f min" % (flag, runner.total_s / 60.0))
     return 0
 
 

@@ -259,11 +259,13 @@ TEST(ClothBenchAccuracy, PrintsTheReferenceEvidenceATableAndARecommendationOnATi
 TEST(ClothBenchAccuracy, SweepsImplicitEulersSolverToleranceAndCapBesideTheIntegrators) {
   // Issue 13: `cloth_bench --accuracy` measures the solver's knob too (as --solver-sweep does), where
   // implicit Euler is among the integrators; without it, or with --no-solver-sweep, nothing of the sort.
+  // (--tolerances and --caps without a sweep to apply them to are refused: ClothBenchCommandLine.)
   const std::string base = std::string(CLOTH_BENCH_EXECUTABLE) +
                            " --accuracy --scene hanging --set rows=4 --set cols=4 --seconds 0.1 --min-timing 0"
-                           " --substeps-list 4 --tolerances 1e-2,1e-3 --caps 3,none";
+                           " --substeps-list 4";
   int status = -1;
-  const std::string with = runCommand(base + " --integrators implicit_euler,rk4 2>/dev/null", &status);
+  const std::string with =
+      runCommand(base + " --tolerances 1e-2,1e-3 --caps 3,none --integrators implicit_euler,rk4 2>/dev/null", &status);
   EXPECT_EQ(status, 0) << with;
   EXPECT_NE(with.find("solver sweep: scene hanging 4x4"), std::string::npos) << with;
   EXPECT_NE(with.find("tolerance        0.01  none"), std::string::npos) << with;
@@ -336,7 +338,8 @@ TEST(ClothBenchCommandLine, EveryModesHelpPrintsItsUsageAndSucceeds) {
 
 TEST(ClothBenchCommandLine, RefusesWhatItWouldIgnoreMisreadOrRunForever) {
   // Each was accepted before (exit 0, or a run of 700 million frames), found by an audit of the tools against
-  // their usage (doc/RELIABILITY.md, "Found on 2026-11-27, last").
+  // their usage and a review (doc/RELIABILITY.md, "Found on 2026-11-27, last"); but --validate's long span,
+  // refused before too, with a wrong reason ("a positive number of seconds").
   const std::vector<std::pair<std::string, std::string>> refused = {
       {"--solver-sweep --seconds 1e8", "--seconds 1e8: expected a number of seconds in (0, 10000]"},
       {"--accuracy --seconds 1e9", "--seconds 1e9: expected a number of seconds in (0, 10000]"},
@@ -352,6 +355,11 @@ TEST(ClothBenchCommandLine, RefusesWhatItWouldIgnoreMisreadOrRunForever) {
       {"--spatial --grids 20x20,20x20", "--grids: 20x20 is not coarser than the grid after it"},
       {"--spatial --grids 20x20,30x30", "--grids: 20x20 does not nest in the finest, 30x30"},
       {"--validate", "--validate needs a test"},
+      {"--terms --validate drape", "--terms and --validate: one mode at a time"},
+      {"--terms --csv /tmp", "--csv /tmp: cannot write there"},
+      {"--accuracy --no-solver-sweep --caps 10", "--caps: --accuracy runs no solver sweep here (--no-solver-sweep)"},
+      {"--accuracy --integrators rk4 --tolerances 1e-2",
+       "--tolerances: --accuracy runs no solver sweep here (implicit_euler is not among --integrators)"},
   };
   for (const auto& [arguments, message] : refused) {
     const std::string command = std::string(CLOTH_BENCH_EXECUTABLE) + " " + arguments + " 2>&1";
@@ -360,6 +368,12 @@ TEST(ClothBenchCommandLine, RefusesWhatItWouldIgnoreMisreadOrRunForever) {
     EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << command << "\n" << output;
     EXPECT_NE(output.find(message), std::string::npos) << command << "\n" << output;
   }
+  // An unknown option is refused once, as unknown (not also as "not an option of" the mode).
+  int status = -1;
+  const std::string output =
+      runCommand(std::string(CLOTH_BENCH_EXECUTABLE) + " --accuracy --no-such-option 1 2>&1", &status);
+  EXPECT_NE(output.find("unknown option '--no-such-option'"), std::string::npos) << output;
+  EXPECT_EQ(output.find("not an option of"), std::string::npos) << output;
 }
 
 }  // namespace
