@@ -501,9 +501,14 @@ void ClothNode::onClockWatch(const ros::WallTimerEvent&) {
   // fire for a while (measured: /clock sent back 5 s from 100.5 after leaps of five frames, then on in
   // 0.02 s steps, and no frame, ~state or warning for 25 of them in 2 of 3 runs). Re-armed, it fires one
   // frame after the new time, and onTimer counts frames from there.
+  // The clock behind the last tick means it went back and the timer has not fired since (a jump the clock
+  // overtakes again before the timer's next due time needs nothing). Re-armed once per such tick: re-arming
+  // at every look would put the tick off for good behind a clock that advances less than a frame a look.
   const ros::Time now = ros::Time::now();
-  if (now < watched_clock_) timer_.setPeriod(ros::Duration(simulation_->options().frameDuration_s()), true);
-  watched_clock_ = now;
+  if (anchored_ && now < last_tick_ && rearmed_after_tick_ != last_tick_) {
+    timer_.setPeriod(ros::Duration(simulation_->options().frameDuration_s()), true);
+    rearmed_after_tick_ = last_tick_;
+  }
 }
 
 void ClothNode::applyGrasp(const cloth_sim::Grasp::ConstPtr& message) {

@@ -162,7 +162,7 @@ class ClothNode {
   /// On the spin thread: after SIGINT or SIGTERM, answers the ~step in progress, then asks roscpp to shut
   /// down from the step service's thread, so that the answer is on the wire before the node leaves.
   void onSignalPoll(const ros::WallTimerEvent& event);
-  /// Re-arms the frame timer when /clock went backwards (see kClockWatch_s).
+  /// Re-arms the frame timer when /clock went back behind the last tick (see kClockWatch_s).
   void onClockWatch(const ros::WallTimerEvent& event);
   bool onReset(std_srvs::Trigger::Request& request, std_srvs::Trigger::Response& response);
   bool onPause(std_srvs::SetBool::Request& request, std_srvs::SetBool::Response& response);
@@ -211,7 +211,7 @@ class ClothNode {
   ros::Timer timer_;
   ros::WallTimer signal_timer_;
   ros::WallTimer clock_watch_timer_;  ///< only under /use_sim_time
-  ros::Time watched_clock_;           ///< the time onClockWatch last read
+  ros::Time rearmed_after_tick_;      ///< the last tick after which onClockWatch re-armed the timer
   bool shutdown_begun_ = false;
   /// ~grasp is received on its own queue and thread, into grasp_commands_ (see kGraspSubscriberQueue).
   ros::CallbackQueue grasp_receive_queue_;
