@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <exception>
 #include <iostream>
 #include <optional>
@@ -72,7 +73,8 @@ constexpr const char* kUsage = R"(usage:
                          (a square cell's sheet stiffness does not depend on its size), mass shared out, air
                          damping per particle and the paper wind coefficient per triangle scaled by the counts
   --set KEY=VALUE        any scene key, as in a scene file (applied before --grid); repeatable
-  --seconds T            simulated span (default 2)
+  --seconds T            simulated span (default 2; at most 1e4 s, and refused where one trajectory, every frame's
+                         positions, would take over 1 GB: every mode but --stability-map keeps two or three)
   --reference-budget S   CPU seconds the reference may take (default 120)
   --min-timing S         time each setting over at least S CPU seconds of repeated runs (default 0.2; 0: once)
   --png FILE             plot with matplotlib (/usr/bin/python3 scripts/accuracy_plot.py)
@@ -361,6 +363,22 @@ void parseToolCommandLine(int argc, char** argv, ToolOptions* options, std::vect
   if (!options->help) checkCombination(*options, modes_given, flags_given, errors);
 }
 
+/// Every mode but the stability map keeps whole trajectories (a frame's positions for every frame, two or
+/// three at once while a reference converges): a span too long for memory is refused before it runs. False
+/// with the reason, naming the longest span that fits at this size.
+bool trajectoryFits(const core::SceneOptions& scene, double seconds, std::string* error) {
+  const double frame_bytes = static_cast<double>(scene.rows) * scene.cols * 3.0 * sizeof(double);
+  const double bytes = frameCount(scene, seconds) * frame_bytes;
+  if (bytes <= kMaxTrajectoryBytes) return true;
+  std::ostringstream out;
+  out << "--seconds " << seconds << ": " << frameCount(scene, seconds) << " frames of " << scene.rows << "x"
+      << scene.cols << " particles would keep " << bytes / kBytesPerGigabyte << " GB a trajectory (at most "
+      << kMaxTrajectoryBytes / kBytesPerGigabyte << " GB: up to "
+      << std::floor(kMaxTrajectoryBytes / frame_bytes / scene.frame_rate_hz) << " s at this size)";
+  *error = out.str();
+  return false;
+}
+
 }  // namespace
 
 bool isAccuracyToolCommand(int argc, char** argv) {
@@ -388,13 +406,16 @@ int runAccuracyTool(int argc, char** argv, const std::string& default_scenes_dir
     return kExitUsage;
   }
   try {
-    if (options.mode == Mode::kSpatial) return runSpatial(options);
     if (options.mode == Mode::kStabilityMap) return runStabilityMap(options);
-    core::SceneOptions scene;
-    if (!buildToolScene(options, options.grid, &scene, &errors)) {
+    core::SceneOptions scene;  // for --spatial, the finest grid's (its trajectory is the largest)
+    const std::optional<GridSize> grid = options.mode == Mode::kSpatial ? options.grids.back() : options.grid;
+    std::string too_long;
+    if (!buildToolScene(options, grid, &scene, &errors) || !trajectoryFits(scene, options.seconds, &too_long)) {
+      if (!too_long.empty()) errors.push_back(too_long);
       for (const std::string& e : errors) std::cerr << "cloth_bench: " << e << "\n";
       return kExitUsage;
     }
+    if (options.mode == Mode::kSpatial) return runSpatial(options);
     if (options.mode == Mode::kTerms) return runTerms(options, scene);
     if (options.mode == Mode::kSolverSweep) return runSolverSweep(options, scene);
     return runAccuracy(options, scene);

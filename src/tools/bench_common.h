@@ -26,6 +26,10 @@ constexpr int kExitUsage = 2;      ///< bad flag, unknown key, invalid value
 /// The longest simulated span a measuring mode takes (--seconds), s: 500,000 frames at 50 Hz, longer than any
 /// measurement here finishes, and a frame count an int holds at any frame rate (at most 1000 Hz).
 constexpr double kMaxSpan_s = 1e4;
+/// The most memory one trajectory a measuring mode keeps may take, bytes (1 GB; two or three are kept at
+/// once): 2,083 s of a 20 x 20 cloth at 50 Hz, 50 s of 128 x 128.
+constexpr double kBytesPerGigabyte = 1e9;
+constexpr double kMaxTrajectoryBytes = 1.0 * kBytesPerGigabyte;
 
 // ---- command-line numbers: the whole text must be the number -------------------------------------------------------
 

@@ -355,6 +355,7 @@ TEST(ClothBenchCommandLine, RefusesWhatItWouldIgnoreMisreadOrRunForever) {
       {"--spatial --grids 20x20,20x20", "--grids: 20x20 is not coarser than the grid after it"},
       {"--spatial --grids 20x20,30x30", "--grids: 20x20 does not nest in the finest, 30x30"},
       {"--validate", "--validate needs a test"},
+      {"--accuracy --seconds 3000", "--seconds 3000: 150000 frames of 20x20 particles would keep 1.44 GB a trajectory"},
       {"--terms --validate drape", "--terms and --validate: one mode at a time"},
       {"--terms --csv /tmp", "--csv /tmp: cannot write there"},
       {"--accuracy --no-solver-sweep --caps 10", "--caps: --accuracy runs no solver sweep here (--no-solver-sweep)"},
