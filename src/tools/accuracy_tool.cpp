@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <exception>
 #include <iostream>
@@ -25,11 +26,19 @@ namespace cloth_sim::bench {
 
 namespace {
 
-constexpr const char* kAccuracyFlag = "--accuracy";
-constexpr const char* kSpatialFlag = "--spatial";
-constexpr const char* kStabilityMapFlag = "--stability-map";
-constexpr const char* kTermsFlag = "--terms";
-constexpr const char* kSolverSweepFlag = "--solver-sweep";
+/// Each measuring mode and the flag that asks for it: the one table the parser, the messages and
+/// isAccuracyToolCommand read.
+struct ModeFlag {
+  const char* flag;
+  Mode mode;
+};
+constexpr std::array<ModeFlag, 5> kModeFlags = {{{"--accuracy", Mode::kAccuracy},
+                                                 {"--spatial", Mode::kSpatial},
+                                                 {"--stability-map", Mode::kStabilityMap},
+                                                 {"--terms", Mode::kTerms},
+                                                 {"--solver-sweep", Mode::kSolverSweep}}};
+/// The textile tests' mode (mode_validate.cpp), a clash beside any of these.
+constexpr const char* kValidateFlag = "--validate";
 /// In --caps: no cap (kUncappedSolverIterations).
 constexpr const char* kNoCapName = "none";
 
@@ -104,14 +113,18 @@ std::optional<GridSize> parseGrid(const std::string& text) {
 }
 
 const char* modeFlag(Mode mode) {
-  switch (mode) {
-    case Mode::kAccuracy: return kAccuracyFlag;
-    case Mode::kSpatial: return kSpatialFlag;
-    case Mode::kStabilityMap: return kStabilityMapFlag;
-    case Mode::kTerms: return kTermsFlag;
-    case Mode::kSolverSweep: return kSolverSweepFlag;
+  for (const ModeFlag& entry : kModeFlags) {
+    if (entry.mode == mode) return entry.flag;
   }
-  return kAccuracyFlag;
+  return kModeFlags.front().flag;
+}
+
+/// The entry whose flag this is, or null.
+const ModeFlag* findModeFlag(const std::string& flag) {
+  for (const ModeFlag& entry : kModeFlags) {
+    if (flag == entry.flag) return &entry;
+  }
+  return nullptr;
 }
 
 /// The options a mode reads besides the scene's (--scene, --scenes-dir, --set, --dynamic), as its usage lists
@@ -160,8 +173,8 @@ void checkCombination(const ToolOptions& options, const std::vector<std::string>
   }
   const std::vector<std::string>& allowed = modeOptions(options.mode);
   const auto known = [](const std::string& flag) {  // an unknown option was refused as such already
-    for (Mode mode : {Mode::kAccuracy, Mode::kSpatial, Mode::kStabilityMap, Mode::kTerms, Mode::kSolverSweep}) {
-      const std::vector<std::string>& options_of = modeOptions(mode);
+    for (const ModeFlag& entry : kModeFlags) {
+      const std::vector<std::string>& options_of = modeOptions(entry.mode);
       if (std::find(options_of.begin(), options_of.end(), flag) != options_of.end()) return true;
     }
     return false;
@@ -221,19 +234,14 @@ void parseToolCommandLine(int argc, char** argv, ToolOptions* options, std::vect
       options->help = true;
       continue;
     }
-    const std::vector<std::pair<const char*, Mode>> modes = {{kAccuracyFlag, Mode::kAccuracy},
-                                                             {kSpatialFlag, Mode::kSpatial},
-                                                             {kStabilityMapFlag, Mode::kStabilityMap},
-                                                             {kTermsFlag, Mode::kTerms},
-                                                             {kSolverSweepFlag, Mode::kSolverSweep}};
-    if (flag == "--validate") {  // a mode of its own (mode_validate.cpp): named, so that the clash is
-      if (std::find(modes_given.begin(), modes_given.end(), flag) == modes_given.end()) modes_given.push_back(flag);
-      if (i + 1 < argc && std::string(argv[i + 1]).rfind("--", 0) != 0) ++i;  // its test's name
-      continue;
-    }
-    const auto mode = std::find_if(modes.begin(), modes.end(), [&](const auto& m) { return flag == m.first; });
-    if (mode != modes.end()) {
-      options->mode = mode->second;
+    const ModeFlag* mode = findModeFlag(flag);
+    if (mode != nullptr || flag == kValidateFlag) {
+      // --validate is counted as a mode so that beside one of these it is a clash, not an unknown option.
+      if (mode != nullptr) {
+        options->mode = mode->mode;
+      } else if (i + 1 < argc && std::string(argv[i + 1]).rfind("--", 0) != 0) {
+        ++i;  // its test's name
+      }
       if (std::find(modes_given.begin(), modes_given.end(), flag) == modes_given.end()) modes_given.push_back(flag);
       continue;
     }
@@ -368,10 +376,11 @@ void parseToolCommandLine(int argc, char** argv, ToolOptions* options, std::vect
 /// with the reason, naming the longest span that fits at this size.
 bool trajectoryFits(const core::SceneOptions& scene, double seconds, std::string* error) {
   const double frame_bytes = static_cast<double>(scene.rows) * scene.cols * 3.0 * sizeof(double);
-  const double bytes = frameCount(scene, seconds) * frame_bytes;
+  const int frames = frameCount(scene, seconds);
+  const double bytes = frames * frame_bytes;
   if (bytes <= kMaxTrajectoryBytes) return true;
   std::ostringstream out;
-  out << "--seconds " << seconds << ": " << frameCount(scene, seconds) << " frames of " << scene.rows << "x"
+  out << "--seconds " << seconds << ": " << frames << " frames of " << scene.rows << "x"
       << scene.cols << " particles would keep " << bytes / kBytesPerGigabyte << " GB a trajectory (at most "
       << kMaxTrajectoryBytes / kBytesPerGigabyte << " GB: up to "
       << std::floor(kMaxTrajectoryBytes / frame_bytes / scene.frame_rate_hz) << " s at this size)";
@@ -383,11 +392,7 @@ bool trajectoryFits(const core::SceneOptions& scene, double seconds, std::string
 
 bool isAccuracyToolCommand(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
-    const std::string flag = argv[i];
-    if (flag == kAccuracyFlag || flag == kSpatialFlag || flag == kStabilityMapFlag || flag == kTermsFlag ||
-        flag == kSolverSweepFlag) {
-      return true;
-    }
+    if (findModeFlag(argv[i]) != nullptr) return true;
   }
   return false;
 }
