@@ -533,11 +533,19 @@ std::vector<int> resolvePins(const std::vector<std::string>& selectors, int rows
   return pins;
 }
 
-bool sameClothGrid(const SceneOptions& a, const SceneOptions& b) {
-  return a.rows == b.rows && a.cols == b.cols && a.width_m == b.width_m && a.height_m == b.height_m &&
-         a.origin_m == b.origin_m && a.u_axis == b.u_axis && a.v_axis == b.v_axis && a.pins == b.pins &&
-         a.pin_positions_m == b.pin_positions_m && a.pin_travel_time_s == b.pin_travel_time_s &&
-         a.mass_kg == b.mass_kg && a.has_material == b.has_material && sameOutline(a.outline, b.outline);
+std::string clothGridDifference(const SceneOptions& a, const SceneOptions& b) {
+  if (a.rows != b.rows || a.cols != b.cols) return "rows, cols";
+  if (a.width_m != b.width_m || a.height_m != b.height_m) return "width, height";
+  if (a.origin_m != b.origin_m || a.u_axis != b.u_axis || a.v_axis != b.v_axis) return "origin, u_axis, v_axis";
+  if (a.pins != b.pins) return "pins";
+  if (a.pin_positions_m != b.pin_positions_m || a.pin_travel_time_s != b.pin_travel_time_s) {
+    return "pin_positions, pin_travel_time";
+  }
+  if (a.mass_kg != b.mass_kg || a.has_material != b.has_material) return "mass or material";
+  if (!sameOutline(a.outline, b.outline)) return "outline";
+  return "";
 }
+
+bool sameClothGrid(const SceneOptions& a, const SceneOptions& b) { return clothGridDifference(a, b).empty(); }
 
 }  // namespace cloth_sim::core

@@ -122,9 +122,10 @@ SimulationSnapshot Simulation::snapshot() const {
 bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error) {
   // A state file holds a material, not the constants it gives: they are derived again here.
   const SceneOptions options = resolveMaterial(snapshot.options);
-  if (!sameClothGrid(options, options_)) {
-    *error = "the snapshot's grid (rows, cols, size, pose, pins or mass) differs from this scene's (" +
-             std::to_string(options_.rows) + "x" + std::to_string(options_.cols) + ")";
+  const std::string difference = clothGridDifference(options, options_);
+  if (!difference.empty()) {
+    *error = "the snapshot's grid differs from this scene's (" + std::to_string(options_.rows) + "x" +
+             std::to_string(options_.cols) + ") in " + difference;
     return false;
   }
   const std::vector<std::string> problems = validateSceneOptions(options);

@@ -29,9 +29,13 @@ class FileDescriptor {
 
 }  // namespace
 
-PathKind pathKind(const std::string& path) {
+PathKind pathKind(const std::string& path, std::string* lookup_error) {
   struct stat status {};
-  if (::lstat(path.c_str(), &status) != 0) return errno == ENOENT || errno == ENOTDIR ? PathKind::kAbsent : PathKind::kOther;
+  if (::lstat(path.c_str(), &status) != 0) {
+    if (errno == ENOENT || errno == ENOTDIR) return PathKind::kAbsent;
+    if (lookup_error != nullptr) *lookup_error = std::strerror(errno);
+    return PathKind::kUnreachable;
+  }
   if (S_ISREG(status.st_mode)) return PathKind::kRegularFile;
   if (S_ISDIR(status.st_mode)) return PathKind::kDirectory;
   return PathKind::kOther;

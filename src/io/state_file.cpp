@@ -551,9 +551,13 @@ bool writeStateFile(const std::string& path, const SimulationSnapshot& snapshot,
   // What the path is, before anything opens it (lstat: a link is not followed): opening a FIFO blocked
   // the node until something wrote to it. Any ROS peer may ask for a save: replace only state files, so
   // a mistyped or hostile path cannot destroy another file the node can write.
-  switch (pathKind(path)) {
+  std::string lookup_error;
+  switch (pathKind(path, &lookup_error)) {
     case PathKind::kAbsent:
       break;
+    case PathKind::kUnreachable:
+      *error = "cannot write " + path + ": " + lookup_error;
+      return false;
     case PathKind::kDirectory:
       *error = path + " is a directory";
       return false;

@@ -549,6 +549,10 @@ void ClothNode::applyGrasp(const cloth_sim::Grasp::ConstPtr& message) {
 
 bool ClothNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
   cancelStep("~reset restarted the scene");
+  std::string released;  // the grasps the reset lets go: their clients must grasp again
+  for (const core::Grasp& grasp : simulation_->grasps()) {
+    released += (released.empty() ? "; released grasp ids " : ", ") + std::to_string(grasp.id);
+  }
   simulation_->reset();
   asleep_ = false;  // frame 0 is computed, not slept through
   grippers_->synchronize();  // a reset lets every gripper go
@@ -556,7 +560,7 @@ bool ClothNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response
   reanchor();
   publish(ros::Time::now());
   response.success = true;
-  response.message = "scene '" + simulation_->options().name + "' back at frame 0";
+  response.message = "scene '" + simulation_->options().name + "' back at frame 0" + released;
   return true;
 }
 
@@ -715,7 +719,9 @@ bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::L
   Eigen::Matrix3Xf colors;
   const bool new_texture = snapshot.options.texture != simulation_->options().texture;
   if (new_texture && !core::sceneVertexColors(snapshot.options.texture, grid.uv, &colors, &error)) {
-    return refuse("its texture does not load");
+    // The reason without the texture's name, which is text from the file.
+    const std::string named = "texture " + snapshot.options.texture + ": ";
+    return refuse("its texture does not load (" + (error.rfind(named, 0) == 0 ? error.substr(named.size()) : "") + ")");
   }
   if (!simulation_->restore(snapshot, &error)) return refuse(error);
   grippers_->synchronize();  // the file's grippers follow their frames by name

@@ -43,17 +43,26 @@ class ClothViewer {
  public:
   bool start(std::string* error) {
     ros::NodeHandle pnh("~");
-    std::string state_topic;
-    std::string mesh_topic;
+    std::string state_topic = "/cloth_node/state";
+    std::string mesh_topic = "mesh";
     double mesh_rate_hz = kDefaultMeshRateHz;
-    pnh.param<std::string>("state_topic", state_topic, "/cloth_node/state");
-    pnh.param<std::string>("mesh_topic", mesh_topic, "mesh");
-    pnh.param<double>("mesh_rate", mesh_rate_hz, mesh_rate_hz);
-    pnh.param<bool>("publish_mesh", publish_mesh_, publish_mesh_);
-    std::string frame_id;
+    std::string frame_id = "world";
     std::string parent_frame;
-    pnh.param<std::string>("frame_id", frame_id, "world");
-    pnh.param<std::string>("parent_frame_id", parent_frame, "");
+    // Each of the wrong type is refused by name (ros::param would fall back to its default in silence).
+    XmlRpc::XmlRpcValue tree;
+    if (!ros::param::get(pnh.getNamespace(), tree)) tree = XmlRpc::XmlRpcValue();
+    if (!cloth_sim::optionalParameter(tree, "state_topic", &state_topic, error) ||
+        !cloth_sim::optionalParameter(tree, "mesh_topic", &mesh_topic, error) ||
+        !cloth_sim::optionalParameter(tree, "mesh_rate", &mesh_rate_hz, error) ||
+        !cloth_sim::optionalParameter(tree, "publish_mesh", &publish_mesh_, error) ||
+        !cloth_sim::optionalParameter(tree, "frame_id", &frame_id, error) ||
+        !cloth_sim::optionalParameter(tree, "parent_frame_id", &parent_frame, error)) {
+      return false;
+    }
+    if (state_topic.empty() || mesh_topic.empty()) {
+      *error = "parameters ~state_topic = '" + state_topic + "', ~mesh_topic = '" + mesh_topic + "': must name topics";
+      return false;
+    }
     if (!parent_frame.empty()) {
       if (frame_id.empty() || frame_id[0] == '/' || parent_frame[0] == '/' || parent_frame == frame_id) {
         *error = "parameters ~frame_id = '" + frame_id + "', ~parent_frame_id = '" + parent_frame +

@@ -349,6 +349,17 @@ bool optionalParameter(const XmlRpc::XmlRpcValue& tree, const std::string& name,
   return true;
 }
 
+bool optionalParameter(const XmlRpc::XmlRpcValue& tree, const std::string& name, bool* value, std::string* error) {
+  const XmlRpc::XmlRpcValue* found = member(tree, name);
+  if (!found) return true;
+  if (found->getType() != XmlRpc::XmlRpcValue::TypeBoolean) {
+    *error = "parameter ~" + name + " = " + describeParameter(*found) + ": must be true or false";
+    return false;
+  }
+  *value = static_cast<bool>(const_cast<XmlRpc::XmlRpcValue&>(*found));
+  return true;
+}
+
 std::vector<std::string> nonFiniteFields(const cloth_sim::ClothState& message) {
   std::vector<std::string> fields;
   const auto finitePoint = [](double x, double y, double z) {

@@ -533,16 +533,26 @@ TEST_F(NodeTest, ResetRestoresTheFirstFrame) {
   const auto later = states_->waitFor([](const ClothState& s) { return s.frame >= 25; }, 15.0, states_->count());
   ASSERT_TRUE(later) << "the running node did not reach frame 25";
   ASSERT_FALSE(sameBits(*frame0, *later)) << "the cloth did not move in 25 frames: the test would prove nothing";
+  // A grasp the reset lets go is named in its answer: its client must grasp again.
+  ros::Publisher grasp_pub = nh_.advertise<cloth_sim::Grasp>(nodeTopic("grasp"), 10);
+  ASSERT_TRUE(waitForSubscribers(grasp_pub, 1, 10.0));
+  const int particle = static_cast<int>((kHangingRows - 1) * kHangingCols);  // bottom-left corner, free
+  grasp_pub.publish(grabMessage(7, particle, frame0->positions[particle], 0.0));
+  const std::uint64_t grabbed_since = states_->count();
+  ASSERT_TRUE(states_->waitFor([](const ClothState&) { return true; }, 10.0, grabbed_since + 5));
 
   std_srvs::Trigger trigger;
   const std::uint64_t since = states_->count();
   ASSERT_TRUE(callService(nodeTopic("reset"), trigger));
   EXPECT_TRUE(trigger.response.success) << trigger.response.message;
+  EXPECT_EQ(trigger.response.message, "scene 'hanging' back at frame 0; released grasp ids 7");
   const auto reset = states_->waitFor([](const ClothState& s) { return s.frame == 0; }, 10.0, since);
   ASSERT_TRUE(reset) << "no frame-0 state after reset";
   EXPECT_EQ(reset->frame, 0u);
   EXPECT_EQ(reset->sim_time, 0.0);
   EXPECT_TRUE(sameBits(*frame0, *reset));
+  ASSERT_TRUE(callService(nodeTopic("reset"), trigger));
+  EXPECT_EQ(trigger.response.message, "scene 'hanging' back at frame 0") << "no grasp was left to release";
 }
 
 TEST_F(NodeTest, PausedStepAdvancesExactlyNFrames) {

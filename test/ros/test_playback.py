@@ -136,6 +136,18 @@ class Playback(unittest.TestCase):
         self.assertEqual(len(meshes[0].points), 6 * (ROWS - 1) * (COLS - 1) - 6)
         self.assertFalse([p for p in meshes[0].points if p.x == 5.0], "the removed particle was drawn")
 
+    def test_the_viewer_refuses_a_parameter_of_the_wrong_type_by_name(self):
+        # ros::param's defaults used to take over in silence: a mesh_rate of 'abc' drew at 50 Hz, a
+        # publish_mesh of 0 still drew, an empty state_topic subscribed to '/'.
+        # A viewer of its own name for each: a private parameter set from the command line stays on the master.
+        for k, (argument, named) in enumerate((("_mesh_rate:=abc", "~mesh_rate"), ("_publish_mesh:=0", "~publish_mesh"),
+                                               ("_state_topic:=", "~state_topic"), ("_frame_id:=5", "~frame_id"))):
+            viewer = subprocess.run(["rosrun", "cloth_sim", "cloth_viewer", "__name:=bad_viewer_%d" % k, argument],
+                                    stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=DEADLINE_S)
+            output = viewer.stdout.decode(errors="replace")
+            self.assertEqual(viewer.returncode, 1, argument + " was taken: " + output[-1000:])
+            self.assertIn(named, output, argument)
+
     def test_a_recording_without_tf_still_has_the_fixed_frame(self):
         # The bag written here holds no /tf and no /tf_static: the frame can only come from the launch.
         frames = {}

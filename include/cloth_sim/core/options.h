@@ -242,6 +242,8 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& options);
 /// Whether two scene options build the same cloth grid (rows, columns, sides, pose, pins and their
 /// motion, mass, whether a material sets it, outline): a retune or a restored snapshot must keep the grid.
 bool sameClothGrid(const SceneOptions& a, const SceneOptions& b);
+/// The first of those that differs, as the scene keys that set it ("rows, cols", "pins", ...); empty if none.
+std::string clothGridDifference(const SceneOptions& a, const SceneOptions& b);
 
 /// Resolves the pin selectors to sorted, unique particle indices; an unknown selector is reported in
 /// *error (and nothing is returned).

@@ -11,8 +11,10 @@
 namespace cloth_sim::core {
 
 /// What is at a path, without following a final symbolic link (lstat) and without opening it.
-enum class PathKind { kAbsent, kRegularFile, kDirectory, kOther };
-PathKind pathKind(const std::string& path);
+/// kUnreachable: the lookup itself failed (a name too long, a loop of links, a folder that may not be
+/// searched), with the system's message in *lookup_error where given.
+enum class PathKind { kAbsent, kRegularFile, kDirectory, kOther, kUnreachable };
+PathKind pathKind(const std::string& path, std::string* lookup_error = nullptr);
 
 /// Reads at most `max_bytes` from a regular file (a link to one is followed). The file is opened
 /// non-blocking and its kind and size are checked on the open descriptor (no race with a rename), and

@@ -75,10 +75,11 @@ YAML::Node toYaml(const XmlRpc::XmlRpcValue& value);
 /// The node's own (non-scene) parameters, read from the private namespace's tree. Absent: *value is left
 /// as it is (the default) and true. Present with another XmlRpc type (`_scene:=42`, a list for
 /// ~frame_id): false with *error naming the parameter, what it got and the type expected. The double
-/// overload accepts integers.
+/// overload accepts integers; the bool one only true or false (not 0 or 1).
 bool optionalParameter(const XmlRpc::XmlRpcValue& tree, const std::string& name, std::string* value,
                        std::string* error);
 bool optionalParameter(const XmlRpc::XmlRpcValue& tree, const std::string& name, double* value, std::string* error);
+bool optionalParameter(const XmlRpc::XmlRpcValue& tree, const std::string& name, bool* value, std::string* error);
 
 /// The ClothState fields holding a non-finite number ("positions", "velocities", "sim_time",
 /// "kinetic_energy", "potential_energy"); empty when it may be published.
