@@ -7,7 +7,8 @@
 #   make demo    build, run cloth.launch headless for DEMO_SECONDS s recording a bag, render the last mesh
 #                to a PNG and print the mesh publish rate (make demo SCENE=flag)
 #   make bench   build, then time cloth_sim against Bullet's soft-body cloth at 20, 64, 128 and 256
-#                (scripts/bench.py): markdown tables on stdout, raw JSON lines in .build/bench_results.json
+#                (scripts/bench.py): markdown tables on stdout, the raw results (one JSON document) in
+#                .build/bench_results.json
 #                (make bench BENCH_ARGS=--quick, or BENCH_ARGS="--sizes 20,64 --frames 20")
 #   make load    build, then flood a cloth_node (its own master, the hanging scene at 64x64) with ~wind at
 #                10 kHz and ~grasp at 1 kHz for 30 s (scripts/load.py): rates sent, received and dropped,
@@ -19,14 +20,17 @@
 #                make rates RATES_ARGS="--scenes flag,drape --sizes 128 --seconds 10")
 #   make accuracy  build, then measure cost against error of every integrator and substep count on hanging, flag
 #                and ball at 20-80 per side, stability maps and each scene's terms (scripts/accuracy.py, about
-#                25 minutes): writes doc/ACCURACY.md and doc/images/accuracy_*.png, raw outputs in .build/accuracy
-#                (make accuracy ACCURACY_ARGS=--reuse rewrites the page from them without running again)
+#                20-25 minutes): writes doc/ACCURACY.md and doc/images/accuracy_*.png, raw outputs in .build/accuracy
+#                (make accuracy ACCURACY_ARGS=--reuse rewrites the page from them without running again: each
+#                output made with the same cloth_bench arguments, recorded beside it; --quick keeps to
+#                .build/accuracy/quick)
 #   make validate  build, then run the textile tests of issue 17 (cantilever against the heavy elastica, the
 #                drape per preset and resolution, the hanging sheet's strain; scripts/validate.py, about 15
 #                minutes): writes doc/VALIDATION.md and doc/images/validation_*.png, raw outputs in
 #                .build/validate (make validate VALIDATE_ARGS=--reuse rewrites the page without running again)
 #   make pictures  record every scene (or SCENES="flag ball") and render it in rviz under Xvfb into
-#                doc/images/rviz_<scene>.png, plus the demo's picture as doc/images/demo_drape.png
+#                doc/images/rviz_<scene>.png, plus the demo's picture of SCENE (drape unless SCENE= says
+#                otherwise) as doc/images/demo_<SCENE>.png
 #   make fuzz    build the libFuzzer targets of test/fuzz with clang (outside catkin) and run each for
 #                FUZZ_SECONDS (60) s: executions, execs/s, coverage, findings; non-zero on any finding.
 #                Corpora and findings stay in .build/fuzz (FUZZ_DIR)

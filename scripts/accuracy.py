@@ -12,14 +12,17 @@ Runs (each a `cloth_bench` command printed in the document, so every figure can 
   --solver-sweep  for hanging, flag and the cloth released flat at 32x32 and 64x64 (implicit Euler's CG tolerance
               and cap against a solve converged to 1e-9; --solver-set KEY=VALUE adds a scene key to these runs,
               e.g. solver_preconditioner=multigrid; --solver-only runs just these and prints their section).
-Raw outputs go to .build/accuracy/ (--reuse: use those instead of running again, to rewrite the document only);
-plots to doc/images/accuracy_*.png. Python 3 standard library only (the plots: cloth_bench calls
+Raw outputs go to .build/accuracy/ (--reuse: use those instead of running again, to rewrite the document only; an
+output is reused only where it was made with the very same cloth_bench arguments, kept beside it in NAME.args);
+plots to doc/images/accuracy_*.png. --quick writes to .build/accuracy/quick/ only (its plots too), so its short
+spans never reach the full run's outputs or the document. Python 3 standard library only (the plots: cloth_bench calls
 scripts/accuracy_plot.py, which needs matplotlib).
 """
 
 import argparse
 import datetime
 import glob
+import json
 import os
 import platform
 import subprocess
@@ -30,7 +33,7 @@ from accuracy_plot import read_csv  # the same CSV the plots read (scripts/ is o
 from bench import machine_description  # one description of the machine for both reports
 
 PARETO_SCENES = ("hanging", "flag", "ball")
-# Grid side -> simulated seconds. The spans are short so that `make accuracy` stays within about 25 minutes on
+# Grid side -> simulated seconds. The spans are short so that `make accuracy` takes about 20-25 minutes on
 # the project's 2-core machine: the reference at 80x80 needs thousands of rk4 steps per frame.
 PARETO_SPANS_S = {20: 1.0, 40: 0.6, 80: 0.6}
 REALTIME_GRID = 64
@@ -52,6 +55,10 @@ TEN_X_REALTIME_COST_MS_PER_S = 10000.0
 # The time-step error worth paying for is this fraction of the grid's own spatial error.
 SPATIAL_SHARE = 0.1
 QUICK_SPANS_S = {20: 0.2}
+# --quick's outputs: a folder of their own under the raw outputs', so that its short spans can never be reused
+# for the document (the argument check in Runner.run would refuse them anyway; this also keeps the full run's
+# outputs from being overwritten by a quick one).
+QUICK_SUBDIR = "quick"
 # --solver-sweep: (label, scene, released flat) at each grid side, set with rows/cols as the node's parameters
 # would (not resampled: the scene as a user runs it at that size, as in doc/BENCHMARKS.md).
 SOLVER_SCENES = (("hanging", "hanging", False), ("flag", "flag", False), ("released flat", "hanging", True))
@@ -79,18 +86,27 @@ class Runner:
         self.total_s = 0.0  # wall time of the cloth_bench runs, reused ones included (from NAME.seconds)
 
     def run(self, name, args):
-        """Runs cloth_bench with args (its stdout kept in OUT/name.txt); returns the stdout text."""
+        """Runs cloth_bench with args (its stdout kept in OUT/name.txt); returns the stdout text.
+
+        With reuse, a kept output is used only if OUT/name.args holds exactly these arguments: the name alone
+        does not say which span or settings made it (a --quick run, an older version of this script)."""
         text_path = os.path.join(self.out_dir, name + ".txt")
         shown = "cloth_bench " + " ".join(args)
         self.commands.append(shown)
         seconds_path = os.path.join(self.out_dir, name + ".seconds")
+        args_path = os.path.join(self.out_dir, name + ".args")
         if self.reuse and os.path.exists(text_path):
-            if os.path.exists(seconds_path):
-                with open(seconds_path) as f:
-                    self.total_s += float(f.read())
-            with open(text_path) as f:
-                return f.read()
+            if self.made_with(args_path, args):
+                if os.path.exists(seconds_path):
+                    with open(seconds_path) as f:
+                        self.total_s += float(f.read())
+                with open(text_path) as f:
+                    return f.read()
+            log("accuracy: %s was made with other arguments (or none recorded): running it again" % text_path)
         log("==> accuracy: %s" % shown)
+        # Whatever was kept under this name no longer matches its arguments until this run completes.
+        if os.path.exists(args_path):
+            os.remove(args_path)
         start = time.monotonic()
         done = subprocess.run([self.bench] + args, stdout=subprocess.PIPE, universal_newlines=True)
         seconds = time.monotonic() - start
@@ -102,7 +118,19 @@ class Runner:
             raise SystemExit("accuracy: cloth_bench failed (exit %d): %s" % (done.returncode, shown))
         with open(text_path, "w") as f:
             f.write(done.stdout)
+        # Written last: it vouches for the outputs above (a run interrupted before here is not reused).
+        with open(args_path, "w") as f:
+            json.dump(args, f)
         return done.stdout
+
+    @staticmethod
+    def made_with(args_path, args):
+        """Whether args_path records exactly args (the arguments the kept output was made with)."""
+        try:
+            with open(args_path) as f:
+                return json.load(f) == args
+        except (OSError, ValueError):
+            return False
 
 
 def fmt(value, digits=2):
@@ -156,8 +184,12 @@ def main(argv):
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--bench", required=True)
     parser.add_argument("--repo", default=REPO_DEFAULT)
-    parser.add_argument("--reuse", action="store_true", help="reuse .build/accuracy outputs where present")
-    parser.add_argument("--quick", action="store_true", help="20x20 only, 0.5 s: to try the pipeline (no document)")
+    parser.add_argument("--reuse", action="store_true",
+                        help="reuse .build/accuracy outputs where present and made with the same arguments")
+    parser.add_argument("--quick", action="store_true",
+                        help="%s only: to try the pipeline (no document; outputs and plots in .build/accuracy/%s)"
+                        % (", ".join("%dx%d, %s s" % (n, n, fmt(s)) for n, s in sorted(QUICK_SPANS_S.items())),
+                           QUICK_SUBDIR))
     parser.add_argument("--solver-only", action="store_true",
                         help="run only the --solver-sweep runs and print their section of the page on stdout")
     parser.add_argument("--terms-only", action="store_true",
@@ -167,6 +199,8 @@ def main(argv):
     args = parser.parse_args(argv)
 
     out_dir = os.path.join(args.repo, ".build", "accuracy")
+    if args.quick:
+        out_dir = os.path.join(out_dir, QUICK_SUBDIR)
     images = os.path.join(args.repo, "doc", "images")
     os.makedirs(out_dir, exist_ok=True)
     runner = Runner(args.bench, out_dir, args.reuse)
@@ -455,7 +489,7 @@ def write_document(repo, pareto, realtime, spatial, stability_rows, stability_te
     w = out.append
     today = datetime.date.today().isoformat()
     w("# Accuracy: choosing an integrator and substeps\n")
-    w("Generated by `make accuracy` (scripts/accuracy.py; %.0f minutes) on %s: %s. Costs are CPU time of one core "
+    w("Generated by `make accuracy` (scripts/accuracy.py; its cloth_bench runs took %.0f minutes) on %s: %s. Costs are CPU time of one core "
       "on this shared machine: they vary by up to about 30 %% from run to run, so compare figures within a "
       "table, not across runs. Do not edit by hand: change scripts/accuracy.py and re-run (`make accuracy "
       "ACCURACY_ARGS=--reuse` rewrites this page from the last run's outputs in .build/accuracy/).\n"
@@ -483,7 +517,7 @@ def write_document(repo, pareto, realtime, spatial, stability_rows, stability_te
     w("## Cost against error: hanging, flag and ball at 20x20, 40x40 and 80x80\n")
     w("Each plot: every stable setting (colour: integrator, label: substeps), the Pareto front circled (no other "
       "setting is both cheaper and more accurate), real time as a dashed line, 1 mm as a dotted one. Spans: "
-      "%s, from the scene's start (shortened to keep `make accuracy` within about 25 minutes on this 2-core "
+      "%s, from the scene's start (shortened to keep `make accuracy` to about 20-25 minutes on this 2-core "
       "machine: the references at 80x80 take hundreds of rk4 steps per frame). So these are the first moments "
       "of each scene, where the cloth falls from rest and moves most; a setting stable here can still fail "
       "later. The ball's sphere first touches the cloth at about t = %s s, so every span includes only the "

@@ -16,6 +16,7 @@ stiffness from a ladder; Bullet's are (substeps, position iterations) rungs orde
 import argparse
 import datetime
 import json
+import math
 import os
 import platform
 import subprocess
@@ -75,7 +76,7 @@ def parse_args(argv):
                         help="seconds one cloth_bench run may take; Bullet rungs estimated to take longer are "
                              "skipped (default %(default)s)")
     parser.add_argument("--out", default=os.path.join(REPO, ".build", "bench_results.json"),
-                        help="where the raw results go (default doc/bench_results.json)")
+                        help="where the raw results go, one JSON document (default .build/bench_results.json)")
     args = parser.parse_args(argv)
 
     if args.sizes:
@@ -91,6 +92,9 @@ def parse_args(argv):
         args.frames = QUICK_FRAMES if args.quick else DEFAULT_FRAMES
     if args.frames < 1 or args.large_frames < 1:
         parser.error("--frames and --large-frames must be >= 1")
+    # 0 or less would time every run out at once (a TimeoutExpired traceback); inf or nan is no limit at all.
+    if not (math.isfinite(args.timeout) and args.timeout > 0):
+        parser.error("--timeout must be a number of seconds above 0, not %s" % args.timeout)
     args.warmup = QUICK_WARMUP if args.quick else DEFAULT_WARMUP
     if not (os.path.isfile(args.bench) and os.access(args.bench, os.X_OK)):
         parser.error("--bench %s: not an executable file" % args.bench)

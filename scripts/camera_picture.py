@@ -8,9 +8,9 @@ seen from another angle.
 
 Needs numpy and matplotlib (python3-numpy, python3-matplotlib).
 """
+import argparse
 import json
 import os
-import sys
 
 import matplotlib
 
@@ -19,6 +19,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 POINT_STRIDE = 3  # every third pixel each way: a readable scatter
+# What depth_camera_tool --out DIR writes, all read here.
+CAMERA_FILES = ("camera.json", "depth.f32", "rgb.u8")
 
 
 def main(folder, output):
@@ -69,7 +71,24 @@ def main(folder, output):
     print("wrote %s (%d points)" % (output, int(seen.sum())))
 
 
+def parse_args(argv=None):
+    """DIR and OUT.png, refused in one line (argparse's exit 2) where a file is missing: not a traceback."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                     epilog="DIR is depth_camera_tool --out's folder")
+    parser.add_argument("folder", metavar="DIR")
+    parser.add_argument("output", metavar="OUT.png")
+    args = parser.parse_args(argv)
+    if not os.path.isdir(args.folder):
+        parser.error("DIR %s: no such folder (the one depth_camera_tool --out DIR wrote into)" % args.folder)
+    missing = [name for name in CAMERA_FILES if not os.path.isfile(os.path.join(args.folder, name))]
+    if missing:
+        parser.error("DIR %s: no %s in it (depth_camera_tool --out DIR writes them)" % (args.folder, ", ".join(missing)))
+    out_folder = os.path.dirname(os.path.abspath(args.output))
+    if not os.path.isdir(out_folder):
+        parser.error("OUT.png %s: no folder %s" % (args.output, out_folder))
+    return args
+
+
 if __name__ == "__main__":
-    if len(sys.argv) != 3:
-        sys.exit(__doc__)
-    main(sys.argv[1], sys.argv[2])
+    arguments = parse_args()
+    main(arguments.folder, arguments.output)

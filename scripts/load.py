@@ -19,11 +19,14 @@ import json
 import math
 import multiprocessing
 import os
+import re
 import signal
 import socket
 import struct
+import shutil
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 import warnings
@@ -46,6 +49,16 @@ REGRAB_ROUNDS = 100
 # The wind: 2 m/s along y, varying by 1 m/s so that no two consecutive messages are alike.
 WIND_M_PER_S = 2.0
 WIND_VARIATION_M_PER_S = 1.0
+# The grid sides cloth_node accepts (core::OptionLimits::kMinGridSide, kMaxGridSide).
+MIN_GRID_SIDE = 2
+MAX_GRID_SIDE = 512
+# A node that refuses its parameters says why in one ROS_FATAL line and exits; without one, this many of
+# its last output lines are shown instead.
+NODE_LOG_TAIL_LINES = 5
+# The shortest flood load.py accepts: ~state at the node's 50 Hz gives some 50 frame periods a second, and the
+# memory is sampled every RSS_SAMPLE_S; a shorter one reports percentiles of next to nothing.
+MIN_SECONDS = 1.0
+ANSI_ESCAPE = re.compile(r"\x1b\[[0-9;]*[A-Za-z]|\x1b\][^\x07]*\x07")
 
 
 def master_proxy():
@@ -60,6 +73,46 @@ def wait_for(condition, timeout_s, period_s=0.05):
             return True
         time.sleep(period_s)
     return condition()
+
+
+class NodeExited(RuntimeError):
+    """A cloth_node this program started has exited; the message says so, with its FATAL line."""
+
+
+def node_exit_message(process, log_path, when):
+    """"cloth_node exited (code N) WHEN: <its FATAL line>" (or its last lines), from its output in log_path."""
+    try:
+        with open(log_path, errors="replace") as log:
+            lines = [ANSI_ESCAPE.sub("", line).strip() for line in log]
+    except OSError:
+        lines = []
+    lines = [line for line in lines if line]
+    shown = [line for line in lines if "FATAL" in line] or lines[-NODE_LOG_TAIL_LINES:]
+    return "cloth_node exited (code %s) %s: %s" % (process.returncode, when,
+                                                   " | ".join(shown) if shown else "it printed nothing")
+
+
+def advertises(proxy, caller, topic):
+    """Whether some node publishes `topic` according to the master behind `proxy`."""
+    _, _, (publishers, _, _) = proxy.getSystemState(caller)
+    return any(name == topic and nodes for name, nodes in publishers)
+
+
+def start_node(binary, parameters, log_path, proxy, caller, ready_s, name="/cloth_node"):
+    """A cloth_node with `parameters` (["_scene:=flag", ...]), its output in log_path; returned once it
+    advertises ~state. It registers with the master before it reads its parameters, so being registered
+    says nothing: ~state is advertised only after the scene was built. NodeExited, with its FATAL line, if
+    it exits first (a parameter or scene it refused)."""
+    with open(log_path, "w") as log:
+        node = subprocess.Popen([binary, "__name:=" + name.lstrip("/")] + parameters, stdout=log,
+                                stderr=subprocess.STDOUT)
+    if not wait_for(lambda: node.poll() is not None or advertises(proxy, caller, name + "/state"), ready_s):
+        node.kill()
+        node.wait()
+        raise RuntimeError("cloth_node did not advertise %s/state within %.0f s" % (name, ready_s))
+    if node.poll() is not None:
+        raise NodeExited(node_exit_message(node, log_path, "before it started"))
+    return node
 
 
 def node_api(node):
@@ -347,15 +400,18 @@ def start_master(log, caller, ready_s=READY_S):
     return master
 
 
-def start_own_graph(rows, cols, log):
-    """A rosmaster on a free port and a cloth_node on the hanging scene; returns (master, node) processes."""
+def start_own_graph(rows, cols, log, node_log_path):
+    """A rosmaster on a free port and a cloth_node on the hanging scene (its output in node_log_path); returns
+    (master, node) processes. NodeExited if the node refuses to start."""
     master = start_master(log, CALLER)
-    binary = subprocess.run(["catkin_find", "--first-only", "--libexec", "cloth_sim", "cloth_node"],
-                            stdout=subprocess.PIPE, universal_newlines=True, check=True).stdout.strip()
-    node = subprocess.Popen([binary, "__name:=cloth_node", "_scene:=hanging", "_rows:=%d" % rows, "_cols:=%d" % cols],
-                            stdout=log, stderr=subprocess.STDOUT)
-    if not wait_for(lambda: master_proxy().lookupNode(CALLER, "/cloth_node")[0] == 1 or node.poll() is not None, READY_S):
-        raise RuntimeError("cloth_node did not register")
+    try:
+        binary = subprocess.run(["catkin_find", "--first-only", "--libexec", "cloth_sim", "cloth_node"],
+                                stdout=subprocess.PIPE, universal_newlines=True, check=True).stdout.strip()
+        node = start_node(binary, ["_scene:=hanging", "_rows:=%d" % rows, "_cols:=%d" % cols], node_log_path,
+                          master_proxy(), CALLER, READY_S)
+    except BaseException:
+        stop(master, signal.SIGINT)
+        raise
     return master, node
 
 
@@ -370,6 +426,21 @@ def stop(process, signal_number):
     return process.returncode
 
 
+def check_arguments(parser, args):
+    """parser.error (exit 2, one line naming the argument) for a number the measurement cannot use."""
+    for option, value in (("--seconds", args.seconds), ("--wind-hz", args.wind_hz), ("--grasp-hz", args.grasp_hz)):
+        # 0 Hz divided by zero in the flooder; 0 s measured nothing (nan periods); inf never ends.
+        if not (math.isfinite(value) and value > 0):
+            parser.error("%s must be a number above 0, not %s" % (option, value))
+    if args.seconds < MIN_SECONDS:
+        parser.error("--seconds must be at least %s (a shorter flood has too few frames to measure), not %s"
+                     % (MIN_SECONDS, args.seconds))
+    for option, value in (("--rows", args.rows), ("--cols", args.cols)):
+        if not MIN_GRID_SIDE <= value <= MAX_GRID_SIDE:
+            parser.error("%s must be a whole number from %d to %d (cloth_node's grid sides), not %d"
+                         % (option, MIN_GRID_SIDE, MAX_GRID_SIDE, value))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--seconds", type=float, default=30.0)
@@ -380,24 +451,39 @@ def main():
     parser.add_argument("--attach", metavar="NODE", help="measure this running node instead of starting one")
     parser.add_argument("--json", metavar="FILE", help="also append the figures as one JSON line to FILE")
     args = parser.parse_args()
+    check_arguments(parser, args)
     master = node = None
     log = open(os.devnull, "w")
+    # The node's own output is kept (not sent to /dev/null with the master's): its FATAL line says why it
+    # exited, if it does.
+    folder = tempfile.mkdtemp(prefix="cloth_load_")
+    node_log = os.path.join(folder, "cloth_node.log")
     try:
         if args.attach:
             name, scene = args.attach, "the running node %s" % args.attach
         else:
-            master, node = start_own_graph(args.rows, args.cols, log)
+            master, node = start_own_graph(args.rows, args.cols, log, node_log)
             name, scene = "/cloth_node", "the hanging scene at %dx%d" % (args.rows, args.cols)
-        figures = measure(name, args.seconds, args.wind_hz, args.grasp_hz)
+        try:
+            figures = measure(name, args.seconds, args.wind_hz, args.grasp_hz)
+        except RuntimeError:
+            # A wait that ran out because the node had gone: its exit is the news, not the wait.
+            if node is not None and node.poll() is not None:
+                raise NodeExited(node_exit_message(node, node_log, "during the measurement"))
+            raise
         if node is not None and node.poll() is not None:
-            raise RuntimeError("cloth_node died under the flood (exit code %s)" % node.returncode)
+            raise NodeExited(node_exit_message(node, node_log, "under the flood"))
+    except RuntimeError as error:  # NodeExited among them: a message, not a traceback
+        sys.exit("load.py: %s" % error)
     finally:
         if node is not None:
+            exited_before = node.poll() is not None  # then already reported above, with its FATAL line
             exit_code = stop(node, signal.SIGTERM)
-            if exit_code not in (0, None):
+            if exit_code not in (0, None) and not exited_before:
                 print("cloth_node exited with %s after SIGTERM" % exit_code, file=sys.stderr)
         if master is not None:
             stop(master, signal.SIGINT)
+        shutil.rmtree(folder, ignore_errors=True)
     print(report(figures, scene))
     if args.json:
         figures["scene"] = scene

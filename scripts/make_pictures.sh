@@ -19,15 +19,35 @@ workdir=$(mktemp -d)
 port=$((20000 + RANDOM % 20000))
 export ROS_MASTER_URI=http://localhost:$port ROS_HOME=$workdir
 trap 'kill $(jobs -p) 2>/dev/null || true; rm -rf "$workdir"' EXIT
+# A launch log's lines that say why it ended (the node's FATAL line, the death notice), then its last lines.
+show_log() {
+  grep -a -E 'FATAL|has died' "$1" >&2 || true
+  echo "--- last lines of roslaunch's output:" >&2
+  tail -20 "$1" >&2
+}
 for scene in "${scenes[@]}"; do
   bag=$workdir/$scene.bag
   echo "==> pictures: $scene (${SECONDS_PER_SCENE} s)"
   roslaunch -p "$port" cloth_sim cloth.launch scene:="$scene" record:=true record_mesh:=true bag:="$bag" >"$workdir/$scene.log" 2>&1 &
   launch=$!
   sleep "$SECONDS_PER_SCENE"
-  kill -INT "$launch"
+  # roslaunch may already have ended by itself: a required node (cloth_node) refused the scene or died. Then
+  # there is nothing to stop, and a bag may exist with no message in it (rosbag is closed on the way out):
+  # say so with the node's FATAL line, before a failing kill under set -e ends the script (and the EXIT
+  # trap deletes the log) or rviz_screenshot.sh is handed the empty bag.
+  if ! kill -0 "$launch" 2>/dev/null; then
+    echo "pictures: roslaunch for $scene ended by itself before its ${SECONDS_PER_SCENE} s: a required node" \
+      "refused to start or died; roslaunch said:" >&2
+    show_log "$workdir/$scene.log"
+    exit 1
+  fi
+  kill -INT "$launch" 2>/dev/null || true  # it may still end on its own between the check and here
   for _ in $(seq $((STOP_GRACE_S * 5))); do kill -0 "$launch" 2>/dev/null || break; sleep 0.2; done
-  [ -f "$bag" ] || { echo "pictures: no bag for $scene; roslaunch said:" >&2; tail -20 "$workdir/$scene.log" >&2; exit 1; }
+  if [ ! -f "$bag" ]; then
+    echo "pictures: no bag for $scene; roslaunch said:" >&2
+    show_log "$workdir/$scene.log"
+    exit 1
+  fi
   "$here/rviz_screenshot.sh" "$bag" "$out_dir/rviz_$scene.png" >/dev/null
   echo "    $out_dir/rviz_$scene.png"
 done

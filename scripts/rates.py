@@ -24,6 +24,7 @@ Needs the package built and its devel/setup.bash sourced (make rates does both).
 import argparse
 import glob
 import json
+import math
 import os
 import shutil
 import signal
@@ -35,13 +36,19 @@ import time
 import xmlrpc.client
 
 # Its master-and-node plumbing is load.py's (the scripts run from this folder).
-from load import start_master, wait_for
+from load import MAX_GRID_SIDE, MIN_GRID_SIDE, NodeExited, node_exit_message, start_master, start_node, wait_for
 
 CALLER = "/cloth_rates"
 READY_S = 60.0        # a 128x128 scene builds and its node registers within this
 STOP_S = 10.0
 # cloth_node's ~state queue (ClothNode::kStateQueue): a wall-time tick sends up to this many frames.
 STATE_QUEUE = 6
+# cloth_topic_rate's --queue range (its kMaxQueue): refused up front rather than by the tool mid-run.
+MIN_QUEUE = 1
+MAX_QUEUE = 1000
+# How often the node is checked while the rate tool waits for its messages: a node that exits is news at once,
+# not after the tool's READY_S wait for a first message.
+NODE_POLL_S = 0.2
 SKIP_S = 2.0          # start-up frames (the scene's first solves, connections) are left out
 STATUS_NAME = "cloth_node: simulation"
 RVIZ_SCREEN = "1000x720x24"
@@ -115,13 +122,26 @@ def summarise(statuses):
             "message": last.message if last else None}
 
 
-def measure_rates(rate_tool, topics, seconds, skip_s=SKIP_S, queue=1):
-    result = subprocess.run([rate_tool, "--seconds", str(seconds), "--skip", str(skip_s), "--wait", str(READY_S),
+def measure_rates(rate_tool, topics, seconds, skip_s=SKIP_S, queue=1, node=None, node_log=None):
+    """cloth_topic_rate's figures for `topics`; NodeExited (with its FATAL line from node_log) if `node`, the
+    node's process where this program started it, exits meanwhile."""
+    tool = subprocess.Popen([rate_tool, "--seconds", str(seconds), "--skip", str(skip_s), "--wait", str(READY_S),
                              "--queue", str(queue)] + topics,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
-    lines = [line for line in result.stdout.splitlines() if line.startswith("{")]
+    while True:
+        try:
+            stdout, stderr = tool.communicate(timeout=NODE_POLL_S)  # retried: no output is lost
+            break
+        except subprocess.TimeoutExpired:
+            if node is not None and node.poll() is not None:
+                stop(tool)
+                tool.communicate()
+                raise NodeExited(node_exit_message(node, node_log, "while its rates were measured"))
+    lines = [line for line in stdout.splitlines() if line.startswith("{")]
     if not lines:
-        raise RuntimeError("cloth_topic_rate printed nothing: " + result.stderr[-500:])
+        if node is not None and node.poll() is not None:
+            raise NodeExited(node_exit_message(node, node_log, "while its rates were measured"))
+        raise RuntimeError("cloth_topic_rate printed nothing: " + stderr[-500:])
     return json.loads(lines[-1])["topics"]
 
 
@@ -174,16 +194,12 @@ def pause(node_name, paused):
         raise RuntimeError("~pause refused: " + answer.message)
 
 
-def run_one(node_binary, rate_tool, diagnostics, proxy, scene, side, seconds, log, start_viewers, paused, skip_s,
-            queue):
-    node = subprocess.Popen([node_binary, "__name:=cloth_node", "_scene:=" + scene, "_rows:=%d" % side,
-                             "_cols:=%d" % side], stdout=log, stderr=subprocess.STDOUT)
+def run_one(node_binary, rate_tool, diagnostics, proxy, scene, side, seconds, node_log, start_viewers, paused,
+            skip_s, queue):
+    # The node's output goes to node_log: if it exits (a scene or size it refuses), its FATAL line says why.
+    node = start_node(node_binary, ["_scene:=" + scene, "_rows:=%d" % side, "_cols:=%d" % side], node_log, proxy,
+                      CALLER, READY_S)
     try:
-        def registered():
-            code, _, _ = proxy.lookupNode(CALLER, "/cloth_node")
-            return code == 1 or node.poll() is not None
-        if not wait_for(registered, READY_S) or node.poll() is not None:
-            raise RuntimeError("cloth_node did not start for %s at %dx%d" % (scene, side, side))
         if paused:
             pause("/cloth_node", True)
         viewers = start_viewers()
@@ -191,13 +207,15 @@ def run_one(node_binary, rate_tool, diagnostics, proxy, scene, side, seconds, lo
         watched = {"node": node.pid, "rviz": viewers[0].pid if viewers else None}
         cpu_before = {name: cpu_s(pid) for name, pid in watched.items() if pid}
         wall_before = time.monotonic()
-        alone = measure_rates(rate_tool, ["/cloth_node/state"], seconds, skip_s, queue)["/cloth_node/state"]
+        alone = measure_rates(rate_tool, ["/cloth_node/state"], seconds, skip_s, queue, node,
+                              node_log)["/cloth_node/state"]
         wall_s = time.monotonic() - wall_before
         # CPU share over the whole measurement (cloth_topic_rate's start-up skip included), % of one core.
         cpu = {name + "_cpu_percent": 100.0 * (cpu_s(watched[name]) - before) / wall_s
                for name, before in cpu_before.items()}
         health = summarise(diagnostics.stop())
-        both = measure_rates(rate_tool, ["/cloth_node/state", "/cloth_node/mesh"], seconds, SKIP_S, queue)
+        both = measure_rates(rate_tool, ["/cloth_node/state", "/cloth_node/mesh"], seconds, SKIP_S, queue, node,
+                             node_log)
     finally:
         stop(node)
     return {"scene": scene, "rows": side, "cols": side, "seconds": seconds, "paused": paused, "queue": queue,
@@ -228,6 +246,33 @@ def table(runs):
     return "\n".join(lines)
 
 
+def check_arguments(parser, args):
+    """(scenes, sizes) from the arguments; parser.error (exit 2, one line naming the argument) for a value the
+    runs cannot use, before any node starts."""
+    scenes = [s for s in args.scenes.split(",") if s]
+    if not scenes:
+        parser.error("--scenes must name at least one scene")
+    sizes = []
+    for text in [t for t in args.sizes.split(",") if t]:  # empty items skipped, as --scenes's are
+        try:
+            side = int(text)
+        except ValueError:
+            side = None
+        if side is None or not MIN_GRID_SIDE <= side <= MAX_GRID_SIDE:
+            parser.error("--sizes must be whole numbers from %d to %d (cloth_node's grid sides), comma-separated; "
+                         "not '%s'" % (MIN_GRID_SIDE, MAX_GRID_SIDE, text))
+        sizes.append(side)
+    if not sizes:
+        parser.error("--sizes must name at least one grid side")
+    if not (math.isfinite(args.seconds) and args.seconds > 0):
+        parser.error("--seconds must be a number above 0, not %s" % args.seconds)
+    if not (math.isfinite(args.skip) and args.skip >= 0):
+        parser.error("--skip must be a number of seconds, 0 or more, not %s" % args.skip)
+    if not MIN_QUEUE <= args.queue <= MAX_QUEUE:
+        parser.error("--queue must be a whole number from %d to %d, not %d" % (MIN_QUEUE, MAX_QUEUE, args.queue))
+    return scenes, sizes
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     here = os.path.dirname(os.path.abspath(__file__))
@@ -238,8 +283,9 @@ def main():
     parser.add_argument("--skip", type=float, default=SKIP_S,
                         help="seconds of ~state left out before the first window (default %(default)s: the start-up); "
                              "e.g. 20 to measure the scenes once they have come to rest (and may sleep)")
-    parser.add_argument("--queue", type=int, default=STATE_QUEUE, choices=range(1, 1001), metavar="N",
-                        help="the rate tool's subscriber queue (default %(default)s: every frame of a catching-up tick)")
+    parser.add_argument("--queue", type=int, default=STATE_QUEUE, metavar="N",
+                        help="the rate tool's subscriber queue, %d to %d (default %%(default)s: every frame of a "
+                             "catching-up tick)" % (MIN_QUEUE, MAX_QUEUE))
     parser.add_argument("--json", metavar="FILE", help="also append each run as one JSON line to FILE")
     parser.add_argument("--rviz", choices=["none", "marker", "plugin"], default="none",
                         help="also run rviz drawing the cloth from ~mesh (marker) or from ~state (plugin)")
@@ -247,8 +293,7 @@ def main():
                         help="pause the node (~pause) first: it republishes every frame without physics, so the "
                              "rates show what publishing and viewing alone cost")
     args = parser.parse_args()
-    scenes = [s for s in args.scenes.split(",") if s]
-    sizes = [int(s) for s in args.sizes.split(",") if s]
+    scenes, sizes = check_arguments(parser, args)
 
     log = open(os.devnull, "w")
     folder = tempfile.mkdtemp(prefix="cloth_rates_")
@@ -270,8 +315,9 @@ def main():
                         viewers.extend(start_rviz(args.rviz, proxy, log, folder))
                     return viewers
                 try:
-                    run = run_one(node_binary, rate_tool, diagnostics, proxy, scene, side, args.seconds, log,
-                                  start_viewers, args.paused, args.skip, args.queue)
+                    run = run_one(node_binary, rate_tool, diagnostics, proxy, scene, side, args.seconds,
+                                  os.path.join(folder, "cloth_node.log"), start_viewers, args.paused, args.skip,
+                                  args.queue)
                 finally:
                     for process in viewers:
                         stop(process)
@@ -280,6 +326,10 @@ def main():
                 if args.json:
                     with open(args.json, "a") as out:
                         out.write(json.dumps(run) + "\n")
+    except RuntimeError as error:  # NodeExited among them: a message (after the runs that did finish), no traceback
+        if runs:
+            print(table(runs))
+        sys.exit("rates.py: %s" % error)
     finally:
         stop(master)
         shutil.rmtree(folder, ignore_errors=True)

@@ -169,7 +169,7 @@ def rate(times):
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("bag")
+    ap.add_argument("bag", metavar="BAG")
     ap.add_argument("out", metavar="OUT.png")
     ap.add_argument("--topic", default="/cloth_node/mesh")
     ap.add_argument("--no-pins", action="store_true",
@@ -177,8 +177,18 @@ def main(argv=None):
     ap.add_argument("--title", default=None, help="picture title (default: the bag's file name)")
     ap.add_argument("--dpi", type=int, default=110)
     args = ap.parse_args(argv)
+    # Refused here in one line each, not as a traceback from rosbag or from savefig at the end.
+    if not os.path.isfile(args.bag):
+        ap.error("BAG %s: no such file" % args.bag)
+    out_folder = os.path.dirname(os.path.abspath(args.out))
+    if not os.path.isdir(out_folder):
+        ap.error("OUT.png %s: no folder %s" % (args.out, out_folder))
 
-    meshes, states, last_states = read_bag(args.bag, args.topic)
+    try:
+        meshes, states, last_states = read_bag(args.bag, args.topic)
+    except (rosbag.ROSBagException, OSError) as error:  # not a bag, a truncated one, unreadable
+        print("render_bag: %s: %s" % (args.bag, error), file=sys.stderr)
+        return 1
     usable = [m for m in meshes if m[2].type == TRIANGLE_LIST and m[2].action == MARKER_ADD and len(m[2].points) >= 3]
     if not usable:
         print("render_bag: %s: %d messages on %s, none a non-empty TRIANGLE_LIST" % (args.bag, len(meshes), args.topic),

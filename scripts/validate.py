@@ -13,7 +13,8 @@ Runs (each a cloth_bench command printed in the page, so every figure can be rep
               drape coefficient and folds.
 The drape at 120 and 160 per side (cotton) takes most of the time (about 15 minutes in all on 2 cores).
 Raw JSON lines go to .build/validate/ (--reuse: read those instead of running again); pictures to
-doc/images/validation_*.png (matplotlib). --quick: the small grids only (a check of the script, not the page).
+doc/images/validation_*.png (matplotlib). --quick: the small grids only (a check of the script, not the page):
+its page and pictures go to .build/validate-quick/ (VALIDATION.md, images/), never to doc/.
 """
 
 import argparse
@@ -175,7 +176,11 @@ def main():
     args = parser.parse_args()
     raw_dir = os.path.join(args.repo, ".build", "validate")
     os.makedirs(raw_dir, exist_ok=True)
-    images = os.path.join(args.repo, "doc", "images")
+    # --quick's reduced page must not replace the real one: it and its pictures go under .build (the page's
+    # links, images/validation_*.png, hold in either folder).
+    page_dir = os.path.join(args.repo, ".build", "validate-quick") if args.quick else os.path.join(args.repo, "doc")
+    images = os.path.join(page_dir, "images")
+    os.makedirs(images, exist_ok=True)
     cantilever_cols = CANTILEVER_COLS[:2] if args.quick else CANTILEVER_COLS
     drape_sides = DRAPE_SIDES[:1] if args.quick else DRAPE_SIDES
     presets = PRESETS[:2] if args.quick else PRESETS
@@ -460,10 +465,10 @@ def main():
     emit("of a real specimen varies between repeats of the test; here it depends on the grid, whose square")
     emit("symmetry the disc's folds start from (a real fabric's from its weave and handling).")
     emit("")
-    page = os.path.join(args.repo, "doc", "VALIDATION.md")
+    page = os.path.join(page_dir, "VALIDATION.md")
     with open(page, "w") as f:
         f.write("\n".join(lines))
-    print("validate.py: wrote %s and doc/images/validation_*.png" % page, file=sys.stderr)
+    print("validate.py: wrote %s and %s" % (page, os.path.join(images, "validation_*.png")), file=sys.stderr)
 
 
 if __name__ == "__main__":
