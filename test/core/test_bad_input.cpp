@@ -253,7 +253,7 @@ TEST(BadOptions, PinsTravellingToTheirHooksTooFastAreRefused) {
   options.pin_positions_m = {Eigen::Vector3d(-0.3, 0.0, 1.5), Eigen::Vector3d(0.3, 0.0, 1.5)};
   options.pin_travel_time_s = 1e-300;
   EXPECT_TRUE(mentions(problemsWith(options), "pin_travel_time")) << problemsWith(options);
-  options.pin_travel_time_s = 1.0;  // the drape's
+  options.pin_travel_time_s = 1.0;  // the drape's was
   EXPECT_EQ(problemsWith(options), "");
 }
 

@@ -480,16 +480,18 @@ TEST(BucklingSprings, TheGridKernelsCapAsTheSpringsDoAndACappedSpringHasNoStiffn
 }
 
 TEST(BucklingSprings, TheDrapeSagsAlikeAt20And40ParticlesPerSide) {
-  // The `drape` scene (cotton, 1 m square on two hooks 0.6 m apart) after 8 s: its top edge's middle
-  // below the hooks. With linear springs the 20 x 20 grid, whose 5 cm cells are wider than the folds
-  // cotton makes, cannot fold there without compressing its stiff membrane and hangs 5 cm (25 %)
-  // shallower than the 40 x 40 one (doc/VALIDATION.md); with the buckling cap the two sag alike.
+  // The `drape` scene (cotton, 1 m square on two hooks 0.6 m apart) after 20 s (its corners reach the
+  // hooks at 4 s): its top edge's middle below the hooks. The 20 x 20 grid's 5 cm cells are wider than
+  // the folds cotton makes: with linear springs it cannot fold there without compressing its stiff
+  // membrane, and hangs 6 cm (17 %) shallower than 80 x 80 (doc/VALIDATION.md); with the buckling cap
+  // 20 x 20 and 40 x 40 sag alike, within the 2 % the issue asks (measured: 0.9 %).
+  constexpr int kTwentySecondsOfFrames = 1000;
   const auto sag_m = [](int side) {
     SceneOptions options = test::loadBuiltinScene("drape");
     options.rows = options.cols = side;
     options.compression_model = CompressionModel::kBuckling;
     Simulation simulation(options);
-    for (int frame = 0; frame < 400; ++frame) simulation.advanceFrame();
+    for (int frame = 0; frame < kTwentySecondsOfFrames; ++frame) simulation.advanceFrame();
     const ClothGrid& grid = simulation.grid();
     const Eigen::Matrix3Xd& x = simulation.state().positions_m;
     const double middle_z = 0.5 * (x(2, grid.index(0, (side - 1) / 2)) + x(2, grid.index(0, side / 2)));
@@ -497,8 +499,8 @@ TEST(BucklingSprings, TheDrapeSagsAlikeAt20And40ParticlesPerSide) {
   };
   const double coarse_m = sag_m(20);
   const double fine_m = sag_m(40);
-  EXPECT_GT(fine_m, 0.25);
-  EXPECT_NEAR(coarse_m, fine_m, 0.05 * fine_m);
+  EXPECT_GT(fine_m, 0.3);
+  EXPECT_NEAR(coarse_m, fine_m, 0.02 * fine_m);
 }
 
 TEST(BucklingSprings, TheKeyIsNamedAndNeedsAMaterial) {
