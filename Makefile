@@ -25,7 +25,7 @@
 #                output made with the same cloth_bench arguments, recorded beside it; --quick keeps to
 #                .build/accuracy/quick)
 #   make validate  build, then run the textile tests of issue 17 (cantilever against the heavy elastica, the
-#                drape per preset and resolution, the hanging sheet's strain; scripts/validate.py, about 15
+#                drape per preset and resolution, the hanging sheet's strain; scripts/validate.py, about 25
 #                minutes): writes doc/VALIDATION.md and doc/images/validation_*.png, raw outputs in
 #                .build/validate (make validate VALIDATE_ARGS=--reuse rewrites the page without running again)
 #   make pictures  record every scene (or SCENES="flag ball") and render it in rviz under Xvfb into
