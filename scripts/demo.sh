@@ -12,17 +12,14 @@ set -eu -o pipefail
 ws=${1:?usage: demo.sh WORKSPACE [SCENE] [SECONDS] [OUTDIR]}
 scene=${2:-drape}
 seconds=${3:-10}
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+# shellcheck source=lib.sh
+source "$here/lib.sh"
 # timeout(1) reads 0 as "no limit": the demo would record a bag until the disk is full. So a whole number
-# above 0, checked before anything starts (fold_rate.sh checks its SECONDS the same way).
-# ("00" is 0 too: the digits are read as a base-10 number before the comparison.)
-case $seconds in
-  '' | *[!0-9]*) seconds_ok=false ;;
-  *) seconds_ok=true; [ "$((10#$seconds))" -gt 0 ] || seconds_ok=false ;;
-esac
-if ! $seconds_ok; then echo "demo.sh: SECONDS must be a whole number above 0, not '$seconds'" >&2; exit 2; fi
+# above 0, checked before anything starts.
+require_whole_number SECONDS "$seconds" 1
 robot_seconds=14  # the least the robot demo runs (wall time, start-up included)
 fold_seconds=12   # the least the fold demo runs: the hands let go at 2.2 s, then it settles
-here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 outdir=${4:-$here/../.build/demo}
 mkdir -p "$outdir"
 outdir=$(cd "$outdir" && pwd)
@@ -68,15 +65,15 @@ timeout -s INT -k 30 "$seconds" roslaunch -p "$port" cloth_sim "${launch_args[@]
 rc=$?
 set -e
 if [ "$rc" -ne 124 ]; then
-  # 124: timeout sent SIGINT after $seconds, the expected end. Anything else: roslaunch ended by itself
-  # (a bad argument, a required node that refused its scene or parameters, or died) or ignored SIGINT and
-  # was killed. roslaunch's own status is 0 even when a required node died, so it says nothing: name the
-  # node's refusal and show its FATAL line first (the log's tail is mostly roslaunch shutting down).
-  echo "demo: roslaunch stopped by itself before its ${seconds} s were up (status $rc): a required node" \
-    "refused to start or died; its FATAL line and the last lines of $log follow" >&2
-  grep -a -E 'FATAL|has died' "$log" >&2 || true
-  echo "--- last lines of $log:" >&2
-  tail -n 30 "$log" >&2
+  # 124: timeout sent SIGINT after $seconds, the expected end.
+  case $rc in
+    137) why="roslaunch ignored SIGINT and was killed 30 s later" ;;
+    125 | 126 | 127) why="timeout could not run roslaunch" ;;
+    *) why="roslaunch stopped by itself before its ${seconds} s were up: a bad launch argument, or a"
+       why="$why required node that refused its scene or parameters, or died" ;;
+  esac
+  echo "demo: $why (status $rc); the lines of $log that say why follow" >&2
+  show_launch_failure "$log"
   exit 1
 fi
 if grep -q "process has died" "$log"; then

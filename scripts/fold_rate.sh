@@ -10,26 +10,15 @@
 ws=${1:?usage: fold_rate.sh WORKSPACE N [SECONDS]}
 n=${2:?usage: fold_rate.sh WORKSPACE N [SECONDS]}
 seconds=${3:-8}
+# shellcheck source=lib.sh
+source "$(dirname "${BASH_SOURCE[0]}")/lib.sh"
 # The grid sides cloth_node accepts (core::OptionLimits::kMinGridSide, kMaxGridSide): anything else is refused
 # by the node after roslaunch has started, and the rate tool then waits for messages that never come.
 readonly MIN_SIDE=2 MAX_SIDE=512
-case $n in
-  '' | *[!0-9]*) n_ok=false ;;
-  *) n_ok=true; { [ "$((10#$n))" -ge "$MIN_SIDE" ] && [ "$((10#$n))" -le "$MAX_SIDE" ]; } || n_ok=false ;;
-esac
-if ! $n_ok; then
-  echo "fold_rate.sh: N must be a whole number from $MIN_SIDE to $MAX_SIDE (the node's grid sides), not '$n'" >&2
-  exit 2
-fi
-case $seconds in
-  '' | *[!0-9]*) seconds_ok=false ;;
-  *) seconds_ok=true; [ "$((10#$seconds))" -gt 0 ] || seconds_ok=false ;;  # "00" is 0 too
-esac
-if ! $seconds_ok; then echo "fold_rate.sh: SECONDS must be a whole number above 0, not '$seconds'" >&2; exit 2; fi
+require_whole_number N "$n" "$MIN_SIDE" "$MAX_SIDE"
+require_whole_number SECONDS "$seconds" 1
 skip=${SKIP:-0}
-case $skip in
-  '' | *[!0-9]*) echo "fold_rate.sh: SKIP must be a whole number of seconds, not '$skip'" >&2; exit 2 ;;
-esac
+require_whole_number SKIP "$skip" 0
 # Debian's ROS tools are /usr/bin/python3 scripts; a pyenv python3 earlier on PATH has no ROS modules.
 export PATH=/usr/bin:/bin:$PATH
 export ROS_HOME=${ROS_HOME:-$ws/ros_home}
@@ -49,8 +38,8 @@ timeout $((skip + seconds + 60)) "$ws/devel/lib/cloth_sim/cloth_topic_rate" --wa
 if ! kill -0 "$launch" 2>/dev/null; then
   # A required node that refused its parameters or died ends roslaunch: its FATAL line and the death notice
   # say which and why (the log's last lines are only roslaunch shutting down).
-  echo "fold_rate.sh: roslaunch exited early; the lines that say why (the whole log: $log):" >&2
-  grep -a -E 'FATAL|ERROR|has died' "$log" >&2 || tail -n 10 "$log" >&2
+  echo "fold_rate.sh: roslaunch exited early; the lines that say why:" >&2
+  show_launch_failure "$log" 10
   exit 1
 fi
 kill -INT "$launch"

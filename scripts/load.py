@@ -22,8 +22,8 @@ import os
 import re
 import signal
 import socket
-import struct
 import shutil
+import struct
 import subprocess
 import sys
 import tempfile
@@ -58,6 +58,7 @@ NODE_LOG_TAIL_LINES = 5
 # The shortest flood load.py accepts: ~state at the node's 50 Hz gives some 50 frame periods a second, and the
 # memory is sampled every RSS_SAMPLE_S; a shorter one reports percentiles of next to nothing.
 MIN_SECONDS = 1.0
+# rosconsole colours its FATAL and ERROR lines with terminal escapes: stripped from the lines quoted.
 ANSI_ESCAPE = re.compile(r"\x1b\[[0-9;]*[A-Za-z]|\x1b\][^\x07]*\x07")
 
 

@@ -19,12 +19,8 @@ workdir=$(mktemp -d)
 port=$((20000 + RANDOM % 20000))
 export ROS_MASTER_URI=http://localhost:$port ROS_HOME=$workdir
 trap 'kill $(jobs -p) 2>/dev/null || true; rm -rf "$workdir"' EXIT
-# A launch log's lines that say why it ended (the node's FATAL line, the death notice), then its last lines.
-show_log() {
-  grep -a -E 'FATAL|has died' "$1" >&2 || true
-  echo "--- last lines of roslaunch's output:" >&2
-  tail -20 "$1" >&2
-}
+# shellcheck source=lib.sh
+source "$here/lib.sh"
 for scene in "${scenes[@]}"; do
   bag=$workdir/$scene.bag
   echo "==> pictures: $scene (${SECONDS_PER_SCENE} s)"
@@ -38,14 +34,14 @@ for scene in "${scenes[@]}"; do
   if ! kill -0 "$launch" 2>/dev/null; then
     echo "pictures: roslaunch for $scene ended by itself before its ${SECONDS_PER_SCENE} s: a required node" \
       "refused to start or died; roslaunch said:" >&2
-    show_log "$workdir/$scene.log"
+    show_launch_failure "$workdir/$scene.log" 20
     exit 1
   fi
   kill -INT "$launch" 2>/dev/null || true  # it may still end on its own between the check and here
   for _ in $(seq $((STOP_GRACE_S * 5))); do kill -0 "$launch" 2>/dev/null || break; sleep 0.2; done
   if [ ! -f "$bag" ]; then
     echo "pictures: no bag for $scene; roslaunch said:" >&2
-    show_log "$workdir/$scene.log"
+    show_launch_failure "$workdir/$scene.log" 20
     exit 1
   fi
   "$here/rviz_screenshot.sh" "$bag" "$out_dir/rviz_$scene.png" >/dev/null

@@ -541,7 +541,7 @@ std::string clothGridDifference(const SceneOptions& a, const SceneOptions& b) {
   if (a.pin_positions_m != b.pin_positions_m || a.pin_travel_time_s != b.pin_travel_time_s) {
     return "pin_positions, pin_travel_time";
   }
-  if (a.mass_kg != b.mass_kg || a.has_material != b.has_material) return "mass or material";
+  if (a.mass_kg != b.mass_kg || a.has_material != b.has_material) return "mass, material";
   if (!sameOutline(a.outline, b.outline)) return "outline";
   return "";
 }

@@ -518,16 +518,11 @@ bool Simulation::recover(const FrameEnvelope& envelope, FrameReport* report) {
   // Not even that: the state itself is beyond saving (or an input is). Start the scene again, keeping the
   // tuning and the wind, rather than stay frozen.
   for (const Grasp& grasp : inputs_.grasps) report->released_grasp_ids.push_back(grasp.id);
+  const std::string released = idList(inputs_.grasps);
   reset();
   report->scene_reset = true;
   what << "the scene was reset to its initial state";
-  if (!report->released_grasp_ids.empty()) {
-    what << "; released grasp ids";
-    for (std::size_t g = 0; g < report->released_grasp_ids.size(); ++g) {
-      what << (g == 0 ? " " : ", ") << report->released_grasp_ids[g];
-    }
-    what << ": their clients must grasp again";
-  }
+  if (!released.empty()) what << "; released grasp ids " << released << ": their clients must grasp again";
   report->recovery = what.str();
   report->max_strain = maxStructuralStrain();
   return true;

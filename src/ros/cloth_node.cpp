@@ -549,10 +549,9 @@ void ClothNode::applyGrasp(const cloth_sim::Grasp::ConstPtr& message) {
 
 bool ClothNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
   cancelStep("~reset restarted the scene");
-  std::string released;  // the grasps the reset lets go: their clients must grasp again
-  for (const core::Grasp& grasp : simulation_->grasps()) {
-    released += (released.empty() ? "; released grasp ids " : ", ") + std::to_string(grasp.id);
-  }
+  // The grasps and grippers the reset lets go: their clients must grasp or attach again.
+  const std::string grasps = core::idList(simulation_->grasps());
+  const std::string grippers = core::idList(simulation_->grippers());
   simulation_->reset();
   asleep_ = false;  // frame 0 is computed, not slept through
   grippers_->synchronize();  // a reset lets every gripper go
@@ -560,7 +559,9 @@ bool ClothNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response
   reanchor();
   publish(ros::Time::now());
   response.success = true;
-  response.message = "scene '" + simulation_->options().name + "' back at frame 0" + released;
+  response.message = "scene '" + simulation_->options().name + "' back at frame 0" +
+                     (grasps.empty() ? "" : "; released grasp ids " + grasps) +
+                     (grippers.empty() ? "" : "; detached gripper ids " + grippers);
   return true;
 }
 
@@ -673,9 +674,8 @@ void ClothNode::diagnose(diagnostic_updater::DiagnosticStatusWrapper& status) {
     // stretched too far for "never passes through itself" to be promised (doc/PHYSICS.md).
     status.add("self-collision stretch ratio", self.stretch_ratio);
   }
-  std::string held;  // ids, so that a client can see whether its grasp is still held
-  for (const core::Grasp& grasp : simulation_->grasps()) held += (held.empty() ? "" : ", ") + std::to_string(grasp.id);
-  status.add("grasps held", held);
+  // Ids, so that a client can see whether its grasp is still held.
+  status.add("grasps held", core::idList(simulation_->grasps()));
   if (!non_finite.empty()) {
     status.mergeSummary(diagnostic_msgs::DiagnosticStatus::ERROR, "not finite: " + join(non_finite, ", "));
   }
@@ -721,7 +721,8 @@ bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::L
   if (new_texture && !core::sceneVertexColors(snapshot.options.texture, grid.uv, &colors, &error)) {
     // The reason without the texture's name, which is text from the file.
     const std::string named = "texture " + snapshot.options.texture + ": ";
-    return refuse("its texture does not load (" + (error.rfind(named, 0) == 0 ? error.substr(named.size()) : "") + ")");
+    return refuse(error.rfind(named, 0) == 0 ? "its texture does not load (" + error.substr(named.size()) + ")"
+                                             : "its texture does not load");
   }
   if (!simulation_->restore(snapshot, &error)) return refuse(error);
   grippers_->synchronize();  // the file's grippers follow their frames by name

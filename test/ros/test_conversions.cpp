@@ -71,6 +71,18 @@ TEST(ParameterTypes, ANodeParameterOfTheWrongTypeIsRefusedAndAnAbsentOneKeepsIts
   EXPECT_TRUE(mentions(error, "~parent_frame_id = 'map' (a string): must be a number")) << error;
   EXPECT_TRUE(optionalParameter(tree, "absent", &text, &error));
   EXPECT_EQ(text, "default");
+  // A flag is true or false: 0 and 1 (roslaunch's reading of an untyped 0) are refused, not read as one.
+  tree["publish_mesh"] = false;
+  tree["record"] = 1;
+  bool flag = true;
+  EXPECT_TRUE(optionalParameter(tree, "publish_mesh", &flag, &error));
+  EXPECT_FALSE(flag);
+  EXPECT_FALSE(optionalParameter(tree, "record", &flag, &error));
+  EXPECT_TRUE(mentions(error, "~record = 1 (an integer): must be true or false")) << error;
+  EXPECT_FALSE(flag);
+  flag = true;
+  EXPECT_TRUE(optionalParameter(tree, "absent", &flag, &error));
+  EXPECT_TRUE(flag) << "an absent flag keeps its default";
 }
 
 TEST(FiniteOutput, AStateWithANonFiniteNumberAnywhereIsFlaggedByField) {

@@ -65,4 +65,13 @@ struct ClothInputs {
   }
 };
 
+/// The ids of grasps or grippers as messages list them, "3, 7" (empty for none): a client told its grasp
+/// or gripper was let go must act on it (grasp again, attach again).
+template <typename Held>
+std::string idList(const std::vector<Held>& held) {
+  std::string list;
+  for (const Held& h : held) list += (list.empty() ? "" : ", ") + std::to_string(h.id);
+  return list;
+}
+
 }  // namespace cloth_sim::core
