@@ -198,7 +198,12 @@ class Grippers(unittest.TestCase):
         self.refused(self.request(2, "refusals", particles=[5]), "already held by gripper 1 ('refusals')")
         self.assertTrue(self.detach(1).success)
         self.refused(self.detach(1), "no gripper 1")
-        self.assertTrue(self.reset().success)
+        # A reset detaches every gripper and says which: their clients must attach again.
+        self.assertTrue(self.request(3, "refusals", particles=[5]).success)
+        reset = self.reset()
+        self.assertTrue(reset.success)
+        self.assertTrue(reset.message.endswith("back at frame 0; detached gripper ids 3"), reset.message)
+        self.refused(self.detach(3), "no gripper 3")
         self.frames.stop("refusals")
         self.frames.stop("far_away")
 
