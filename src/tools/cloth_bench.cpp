@@ -56,6 +56,9 @@ using cloth_sim::bench::kExitRunFailed;
 using cloth_sim::bench::kExitUsage;  // also --bullet without Bullet
 
 constexpr int kDefaultFrames = 100;
+/// The most --frames, and the most --warmup: a million frames are 5.5 hours of a 50 Hz scene, and their sum
+/// stays far inside an int (warm-up and timed frames are counted together; each timed frame keeps its time).
+constexpr int kMaxBenchFrames = 1000000;
 /// --capsules: each capsule's radius and core length, m, its gap to the cloth at rest and how far it
 /// presses in (its surface goes from gap off the cloth to press - gap into it).
 constexpr double kBenchCapsuleRadius_m = 0.03;
@@ -71,6 +74,8 @@ constexpr double kGripperCircle_Hz = 1.0;
 /// Frames run before timing starts: the first frames pay for allocations and cold caches.
 constexpr int kDefaultWarmupFrames = 5;
 constexpr int kDefaultBulletIterations = 1;
+/// The most --iterations (Bullet's position iterations a substep): 100 times the most its tables use (8).
+constexpr int kMaxBulletIterations = 1000;
 /// Bullet has no `auto`: a scene that asks for it runs Bullet at one substep per frame (what the scenes'
 /// fixed count was before `auto`; --substeps sets it).
 constexpr int kDefaultBulletSubsteps = 1;
@@ -99,20 +104,22 @@ Times a cloth scene and prints one JSON line on stdout.
   --substeps N           substeps per frame (same as --set substeps=N)
   --set KEY=VALUE        any scene key, parsed as in a scene file; repeatable. --rows, --cols, --integrator,
                          --substeps and --set apply in command-line order, after the scene file
-  --frames N             timed frames (default 100)
-  --warmup N             frames run before timing starts (default 5; not used with --bullet)
+  --frames N             timed frames (default 100, at most 1000000)
+  --warmup N             frames run before timing starts (default 5, at most 1000000; not used with --bullet)
   --dynamic              cloth starts flat at the height of its top edge, two top corners pinned, and swings
                          down (overrides u_axis, v_axis, origin and pins after --set)
   --bullet               run Bullet's soft-body cloth instead (only in builds with Bullet); it takes rows,
                          cols, width, height, mass, frame_rate and substeps from the scene
-  --iterations N         Bullet's position iterations per substep (default 1; --bullet only)
+  --iterations N         Bullet's position iterations per substep (default 1, at most 1000; --bullet only)
   --stop-above-strain X  end the run at the first frame whose structural strain exceeds X, that rolls back or
                          that is not finite: the setting has failed, and a diverging frame costs the guard up
                          to 15 times the substeps (not used with --bullet)
   --capsules N           add N capsule frame colliders (radius 3 cm, core 20 cm) spread across the cloth, each
                          lying along it and pressing 1 cm in and out of it at 1 Hz: the cost of robot links
+                         (at most 256 with the scene's own)
   --grippers N           hold the cloth with N grippers (Simulation::attachGripper) along its bottom row, each
-                         holding one particle and circling 2 cm at 1 Hz: the cost of grippers (0: none)
+                         holding one particle and circling 2 cm at 1 Hz: the cost of grippers (0: none; at
+                         most 16, and at most the row's particles)
   --fold                 fold the cloth in half with two hands as the `fold` scene's demo does (ScriptedFold,
                          scripted_fold.h): the cost of a fold, with self-collision as the scene sets it
   --help                 this text
@@ -151,12 +158,13 @@ struct BenchOptions {
   bool help = false;
 };
 
-/// Parses a count flag's value into *out, which must be at least `minimum`.
-void parseCount(const std::string& flag, const std::string& text, int minimum, int* out,
+/// Parses a count flag's value into *out, which must lie in [minimum, maximum].
+void parseCount(const std::string& flag, const std::string& text, int minimum, int maximum, int* out,
                 std::vector<std::string>* errors) {
   const std::optional<int> value = parseInt(text);
-  if (!value || *value < minimum) {
-    errors->push_back(flag + " " + text + ": expected an integer >= " + std::to_string(minimum));
+  if (!value || *value < minimum || *value > maximum) {
+    errors->push_back(flag + " " + text + ": expected an integer in [" + std::to_string(minimum) + ", " +
+                      std::to_string(maximum) + "]");
     return;
   }
   *out = *value;
@@ -219,16 +227,17 @@ void parseCommandLine(int argc, char** argv, BenchOptions* options, std::vector<
     } else if (flag == "--set") {
       cloth_sim::bench::parseSceneSetting(value, &options->overrides, errors);
     } else if (flag == "--frames") {
-      parseCount(flag, value, 1, &options->frames, errors);
+      parseCount(flag, value, 1, kMaxBenchFrames, &options->frames, errors);
     } else if (flag == "--capsules") {
-      parseCount(flag, value, 0, &options->capsules, errors);
+      // Bounded here, before the scene is built with them (2e9 of them ran out of memory there).
+      parseCount(flag, value, 0, static_cast<int>(core::OptionLimits::kMaxFrameColliders), &options->capsules, errors);
     } else if (flag == "--grippers") {
-      parseCount(flag, value, 0, &options->grippers, errors);
+      parseCount(flag, value, 0, static_cast<int>(core::Simulation::kMaxGrippers), &options->grippers, errors);
     } else if (flag == "--warmup") {
-      parseCount(flag, value, 0, &options->warmup_frames, errors);
+      parseCount(flag, value, 0, kMaxBenchFrames, &options->warmup_frames, errors);
     } else if (flag == "--iterations") {
       int iterations = 0;
-      parseCount(flag, value, 1, &iterations, errors);
+      parseCount(flag, value, 1, kMaxBulletIterations, &iterations, errors);
       options->bullet_iterations = iterations;
     } else if (flag == "--stop-above-strain") {
       const std::optional<double> strain = parseDouble(value);
@@ -242,10 +251,6 @@ void parseCommandLine(int argc, char** argv, BenchOptions* options, std::vector<
   if (options->grippers > 0 && options->bullet) errors->push_back("--grippers: Bullet's run has no grippers");
   if (options->capsules > 0 && options->bullet) errors->push_back("--capsules: Bullet's run has no frame colliders");
   if (options->fold && options->bullet) errors->push_back("--fold: Bullet's run has no hands");
-  if (options->grippers > static_cast<int>(core::Simulation::kMaxGrippers)) {
-    errors->push_back("--grippers " + std::to_string(options->grippers) + ": at most " +
-                      std::to_string(core::Simulation::kMaxGrippers));
-  }
   if (options->stop_above_strain && options->bullet) {
     errors->push_back("--stop-above-strain: Bullet's run cannot stop early (it checks its strain after the run)");
   }
@@ -264,6 +269,12 @@ bool buildScene(const BenchOptions& options, core::SceneOptions* scene, std::vec
     return false;
   }
   if (options.dynamic) cloth_sim::bench::makeDynamic(scene);
+  // One particle of the bottom row each (attachBenchGrippers): a usage error, not a failed run.
+  if (options.grippers > scene->cols) {
+    errors->push_back("--grippers " + std::to_string(options.grippers) + ": the bottom row holds " +
+                      std::to_string(scene->cols) + " particles, one for each gripper");
+    return false;
+  }
   for (int k = 0; k < options.capsules; ++k) {
     core::FrameCollider capsule;
     capsule.frame = "bench_capsule_" + std::to_string(k);

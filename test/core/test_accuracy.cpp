@@ -377,5 +377,25 @@ TEST(ClothBenchCommandLine, RefusesWhatItWouldIgnoreMisreadOrRunForever) {
   EXPECT_EQ(output.find("not an option of"), std::string::npos) << output;
 }
 
+TEST(ClothBenchCommandLine, APlainRunRefusesCountsItCouldNotRun) {
+  // Found by an audit of the tools (doc/RELIABILITY.md): 2e9 capsules ran out of memory building the scene
+  // (exit 134), --warmup 2147483647 overflowed the frame count and "measured" nothing with exit 0, and more
+  // grippers than the bottom row has particles failed as a run (exit 1) instead of as a usage error.
+  const std::vector<std::pair<std::string, std::string>> refused = {
+      {"--rows 10 --cols 10 --capsules 2000000000 --frames 2", "--capsules 2000000000: expected an integer in [0, 256]"},
+      {"--rows 10 --cols 10 --frames 2 --warmup 2147483647", "--warmup 2147483647: expected an integer in [0, 1000000]"},
+      {"--rows 10 --cols 10 --frames 2147483647", "--frames 2147483647: expected an integer in [1, 1000000]"},
+      {"--rows 10 --cols 3 --grippers 5 --frames 2", "--grippers 5: the bottom row holds 3 particles"},
+      {"--rows 10 --cols 10 --grippers 17", "--grippers 17: expected an integer in [0, 16]"},
+  };
+  for (const auto& [arguments, message] : refused) {
+    const std::string command = std::string(CLOTH_BENCH_EXECUTABLE) + " " + arguments + " 2>&1";
+    int status = -1;
+    const std::string output = runCommand(command, &status);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << command << "\n" << output;
+    EXPECT_NE(output.find(message), std::string::npos) << command << "\n" << output;
+  }
+}
+
 }  // namespace
 }  // namespace cloth_sim::bench
