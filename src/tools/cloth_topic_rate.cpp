@@ -46,6 +46,8 @@ constexpr double kDefaultWait_s = 30.0;
 constexpr double kDefaultSkip_s = 1.0;
 constexpr double kDefaultQueue = 1.0;
 constexpr double kMaxQueue = 1000.0;
+/// The longest --seconds, --wait or --skip, s (a day): their sum is the deadline, which must stay finite.
+constexpr double kMaxSpan_s = 86400.0;
 using cloth_sim::core::kMillisecondsPerSecond;
 constexpr double kPollPeriod_s = 0.01;
 /// A std_msgs/Header's serialised start: uint32 seq, then the stamp as uint32 seconds and nanoseconds.
@@ -201,6 +203,9 @@ int main(int argc, char** argv) {
       // Finite only: an infinite --seconds, --wait or --skip would never end and print inf, which is not JSON.
       const std::optional<double> parsed = cloth_sim::bench::parseDouble(text);
       if (!parsed || *parsed < 0.0) return usage(argument + " " + text + ": takes a finite number >= 0");
+      if (value != &queue && *parsed > kMaxSpan_s) {
+        return usage(argument + " " + text + ": at most " + std::to_string(static_cast<int>(kMaxSpan_s)) + " s");
+      }
       *value = *parsed;
     } else if (!argument.empty() && argument[0] == '-') {
       return usage("unknown option " + argument);

@@ -42,20 +42,22 @@ namespace core = cloth_sim::core;
 /// The most --repeat: renders of 1 to 7 ms each, twice over (depth, then depth and colour), so 10,000 already
 /// take minutes; a larger count only looks like a hang.
 constexpr int kMaxRepeat = 10000;
+/// The most --frames before the render: a million frames are 5.5 hours of a 50 Hz scene.
+constexpr int kMaxSettleFrames = 1000000;
 /// Eye and target closer than this, m, give no view direction.
 constexpr double kMinViewDistance_m = 1e-6;
 /// |sin| of the angle between the view and world z below which z cannot be the image's up (their cross product
 /// vanishes and the look-at has no right axis): such a view takes world y as up instead.
 constexpr double kMinUpSine = 1e-6;
 constexpr const char* kUsage =
-    "usage: depth_camera_tool [--scene drape] [--rows N] [--cols N] [--frames 150] [--repeat 50]\n"
+    "usage: depth_camera_tool [--scene drape] [--rows N] [--cols N] [--frames 300] [--repeat 50]\n"
     "                         [--width 640] [--height 480] [--eye x,y,z] [--target x,y,z] [--out DIR]\n";
 
 struct ToolOptions {
   std::string scene = "drape";
   std::optional<int> rows;  // none: the scene's
   std::optional<int> cols;
-  int frames = 150;  // 3 s at 50 Hz: the drape scene's corners reach their hooks after 1 s
+  int frames = 300;  // 6 s at 50 Hz: the drape scene's corners reach their hooks at 4 s
   int repeat = 50;
   core::CameraOptions camera;
   Eigen::Vector3d eye_m{1.0, -1.75, 1.2};
@@ -161,8 +163,9 @@ bool parseArguments(int argc, char** argv, ToolOptions* options, bool* help, std
              std::to_string(kMaxRepeat) + "]";
     return false;
   }
-  if (options->frames < 0) {
-    *error = "--frames " + std::to_string(options->frames) + ": takes a whole number >= 0";
+  if (options->frames < 0 || options->frames > kMaxSettleFrames) {
+    *error = "--frames " + std::to_string(options->frames) + ": takes a whole number in [0, " +
+             std::to_string(kMaxSettleFrames) + "]";
     return false;
   }
   if ((options->target_m - options->eye_m).norm() < kMinViewDistance_m) {
