@@ -1,28 +1,24 @@
 // What cloth_bench's timing run and its measuring modes (--accuracy, --spatial, --stability-map, --terms,
-// --solver-sweep) share: exit codes, command-line numbers, KEY=VALUE scene overrides read exactly as the node
-// reads a parameter, the scene built from them, and the "released flat" start (--dynamic).
+// --solver-sweep) share: exit codes and command-line numbers (from tool_common.h), KEY=VALUE scene overrides
+// read exactly as the node reads a parameter, the scene built from them, and the "released flat" start (--dynamic).
 #pragma once
 
 #include "cloth_sim/core/options.h"
 #include "cloth_sim/io/scene_file.h"
+#include "tool_common.h"
 
 #include <yaml-cpp/yaml.h>
 
 #include <Eigen/Core>
 
-#include <charconv>
 #include <cmath>
 #include <exception>
 #include <optional>
 #include <string>
-#include <system_error>
 #include <vector>
 
 namespace cloth_sim::bench {
 
-constexpr int kExitOk = 0;
-constexpr int kExitRunFailed = 1;  ///< the run itself failed (a bug, out of memory, an output not written)
-constexpr int kExitUsage = 2;      ///< bad flag, unknown key, invalid value
 /// The longest simulated span a measuring mode takes (--seconds), s: 500,000 frames at 50 Hz, longer than any
 /// measurement here finishes, and a frame count an int holds at any frame rate (at most 1000 Hz).
 constexpr double kMaxSpan_s = 1e4;
@@ -30,28 +26,6 @@ constexpr double kMaxSpan_s = 1e4;
 /// once): 2,083 s of a 20 x 20 cloth at 50 Hz, 50 s of 128 x 128.
 constexpr double kBytesPerGigabyte = 1e9;
 constexpr double kMaxTrajectoryBytes = 1.0 * kBytesPerGigabyte;
-
-// ---- command-line numbers: the whole text must be the number -------------------------------------------------------
-
-inline std::optional<int> parseInt(const std::string& text) {
-  int value = 0;
-  const char* end = text.data() + text.size();
-  const auto [ptr, ec] = std::from_chars(text.data(), end, value);
-  if (ec != std::errc() || ptr != end) return std::nullopt;
-  return value;
-}
-
-/// A finite number spanning the whole text (stod: libstdc++ before GCC 11 has no from_chars for double).
-inline std::optional<double> parseDouble(const std::string& text) {
-  try {
-    std::size_t used = 0;
-    const double value = std::stod(text, &used);
-    if (used != text.size() || !std::isfinite(value)) return std::nullopt;
-    return value;
-  } catch (const std::exception&) {
-    return std::nullopt;
-  }
-}
 
 // ---- scene overrides -----------------------------------------------------------------------------------------------
 

@@ -553,26 +553,7 @@ class JsonLine {
     return buffer;
   }
 
-  static std::string quoted(const std::string& text) {
-    std::string out = "\"";
-    for (const char c : text) {
-      switch (c) {
-        case '"': out += "\\\""; break;
-        case '\\': out += "\\\\"; break;
-        case '\n': out += "\\n"; break;
-        case '\t': out += "\\t"; break;
-        default:
-          if (static_cast<unsigned char>(c) < 0x20) {
-            char escaped[8];
-            std::snprintf(escaped, sizeof(escaped), "\\u%04x", static_cast<unsigned>(c));
-            out += escaped;
-          } else {
-            out += c;
-          }
-      }
-    }
-    return out + "\"";
-  }
+  static std::string quoted(const std::string& text) { return cloth_sim::bench::jsonQuoted(text); }
 
   std::string body_;
 };

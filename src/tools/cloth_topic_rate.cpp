@@ -16,9 +16,13 @@
 // --queue is the subscriber's queue: 1 (the default) counts what a subscriber that only wants the newest
 // message gets; cloth_node sends the frames a late tick caught up on back to back (up to 6), so a
 // subscriber that wants every frame, and this tool counting them, needs a queue that deep.
+// --seconds, --wait and --skip take finite numbers (a wait of inf would never end); a topic must be a valid ROS
+// name. A bad option or topic exits 2 before anything is subscribed; --help prints the usage and exits 0.
 #include "cloth_sim/core/constants.h"
 #include "cloth_sim/ros/message_definition.h"
+#include "tool_common.h"
 
+#include <ros/names.h>
 #include <ros/ros.h>
 #include <topic_tools/shape_shifter.h>
 
@@ -42,6 +46,8 @@ constexpr double kDefaultWait_s = 30.0;
 constexpr double kDefaultSkip_s = 1.0;
 constexpr double kDefaultQueue = 1.0;
 constexpr double kMaxQueue = 1000.0;
+/// The longest --seconds, --wait or --skip, s (a day): their sum is the deadline, which must stay finite.
+constexpr double kMaxSpan_s = 86400.0;
 using cloth_sim::core::kMillisecondsPerSecond;
 constexpr double kPollPeriod_s = 0.01;
 /// A std_msgs/Header's serialised start: uint32 seq, then the stamp as uint32 seconds and nanoseconds.
@@ -167,10 +173,11 @@ class RateMeter {
   std::vector<ros::Subscriber> subscribers_;
 };
 
-int usage(const char* reason) {
-  std::fprintf(stderr, "cloth_topic_rate: %s\nusage: cloth_topic_rate [--seconds S] [--wait S] [--skip S] [--queue N] TOPIC...\n",
-               reason);
-  return 2;
+constexpr const char* kUsage = "usage: cloth_topic_rate [--seconds S] [--wait S] [--skip S] [--queue N] TOPIC...\n";
+
+int usage(const std::string& reason) {
+  std::fprintf(stderr, "cloth_topic_rate: %s\n%s", reason.c_str(), kUsage);
+  return cloth_sim::bench::kExitUsage;
 }
 
 }  // namespace
@@ -184,22 +191,38 @@ int main(int argc, char** argv) {
   std::vector<std::string> topics;
   for (int i = 1; i < argc; ++i) {
     const std::string argument = argv[i];
+    if (argument == "--help" || argument == "-h") {
+      std::printf("%s", kUsage);
+      return cloth_sim::bench::kExitOk;
+    }
     double* value = argument == "--seconds" ? &seconds : argument == "--wait" ? &wait_s : argument == "--skip" ? &skip_s
                     : argument == "--queue" ? &queue : nullptr;
     if (value) {
-      if (i + 1 >= argc) return usage(("missing the value of " + argument).c_str());
-      char* end = nullptr;
-      *value = std::strtod(argv[++i], &end);
-      if (end == argv[i] || *end != '\0' || !(*value >= 0.0)) return usage(("bad value for " + argument).c_str());
+      if (i + 1 >= argc) return usage("missing the value of " + argument);
+      const std::string text = argv[++i];
+      // Finite only: an infinite --seconds, --wait or --skip would never end and print inf, which is not JSON.
+      const std::optional<double> parsed = cloth_sim::bench::parseDouble(text);
+      if (!parsed || *parsed < 0.0) return usage(argument + " " + text + ": takes a finite number >= 0");
+      if (value != &queue && *parsed > kMaxSpan_s) {
+        return usage(argument + " " + text + ": at most " + std::to_string(static_cast<int>(kMaxSpan_s)) + " s");
+      }
+      *value = *parsed;
     } else if (!argument.empty() && argument[0] == '-') {
-      return usage(("unknown option " + argument).c_str());
+      return usage("unknown option " + argument);
     } else {
+      // Checked here: subscribe() would throw ros::InvalidNameException and abort. An empty name is valid to
+      // ros::names but would resolve to the namespace itself.
+      std::string problem;
+      if (argument.empty()) return usage("an empty topic name");
+      if (!ros::names::validate(argument, problem)) return usage("topic " + argument + ": " + problem);
       topics.push_back(argument);
     }
   }
   if (topics.empty()) return usage("no topic given");
   if (seconds <= 0.0) return usage("--seconds must be positive");
-  if (queue < 1.0 || queue > kMaxQueue || queue != std::floor(queue)) return usage("--queue must be a whole number in [1, 1000]");
+  if (queue < 1.0 || queue > kMaxQueue || queue != std::floor(queue)) {
+    return usage("--queue must be a whole number in [1, " + std::to_string(static_cast<int>(kMaxQueue)) + "]");
+  }
 
   ros::NodeHandle handle;
   RateMeter meter(seconds, skip_s, static_cast<std::uint32_t>(queue));

@@ -6,6 +6,8 @@
 //   depth_camera_tool [--scene drape] [--rows 64] [--cols 64] [--frames 150] [--repeat 50]
 //                     [--width 640] [--height 480] [--eye x,y,z] [--target x,y,z] [--out DIR]
 // The default camera stands 2 m from the drape scene's cloth, to its front right, level with its middle.
+// Image up is world +z, except for a view along z (a top view), where it is world +y. A bad option (eye equal
+// to target, --out not a writable folder) exits 2 before the scene is settled; --help prints the usage, exit 0.
 #include "cloth_sim/core/depth_render.h"
 #include "cloth_sim/core/simulation.h"
 #include "cloth_sim/io/scene_file.h"
@@ -17,23 +19,45 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <optional>
 #include <iostream>
 #include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
 
+#include <sys/stat.h>
+#include <unistd.h>
+
 namespace {
 
+using cloth_sim::bench::jsonQuoted;
+using cloth_sim::bench::kExitOk;
+using cloth_sim::bench::kExitRunFailed;
+using cloth_sim::bench::kExitUsage;
 using cloth_sim::bench::parseDouble;
 using cloth_sim::bench::parseInt;
 namespace core = cloth_sim::core;
 
+/// The most --repeat: renders of 1 to 7 ms each, twice over (depth, then depth and colour), so 10,000 already
+/// take minutes; a larger count only looks like a hang.
+constexpr int kMaxRepeat = 10000;
+/// The most --frames before the render: a million frames are 5.5 hours of a 50 Hz scene.
+constexpr int kMaxSettleFrames = 1000000;
+/// Eye and target closer than this, m, give no view direction.
+constexpr double kMinViewDistance_m = 1e-6;
+/// |sin| of the angle between the view and world z below which z cannot be the image's up (their cross product
+/// vanishes and the look-at has no right axis): such a view takes world y as up instead.
+constexpr double kMinUpSine = 1e-6;
+constexpr const char* kUsage =
+    "usage: depth_camera_tool [--scene drape] [--rows N] [--cols N] [--frames 300] [--repeat 50]\n"
+    "                         [--width 640] [--height 480] [--eye x,y,z] [--target x,y,z] [--out DIR]\n";
+
 struct ToolOptions {
   std::string scene = "drape";
-  int rows = 0;  // 0: the scene's
-  int cols = 0;
-  int frames = 150;  // 3 s at 50 Hz: the drape scene's corners reach their hooks after 1 s
+  std::optional<int> rows;  // none: the scene's
+  std::optional<int> cols;
+  int frames = 300;  // 6 s at 50 Hz: the drape scene's corners reach their hooks at 4 s
   int repeat = 50;
   core::CameraOptions camera;
   Eigen::Vector3d eye_m{1.0, -1.75, 1.2};
@@ -53,11 +77,31 @@ bool parseVector(const std::string& text, Eigen::Vector3d* vector) {
   return !std::getline(in, part, ',');
 }
 
-bool parseArguments(int argc, char** argv, ToolOptions* options, std::string* error) {
+/// Whether `path` is a folder this process may write into: checked before the scene is settled, so a typo
+/// does not cost the whole run.
+bool isWritableFolder(const std::string& path) {
+  struct stat info {};
+  return ::stat(path.c_str(), &info) == 0 && S_ISDIR(info.st_mode) && ::access(path.c_str(), W_OK | X_OK) == 0;
+}
+
+/// Image up for a camera looking along `forward`: world z, unless the view runs along z, where z has no
+/// component across the view; then world y, so a top view looks down with +y up in the image.
+Eigen::Vector3d upAxisFor(const Eigen::Vector3d& forward) {
+  const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
+  return forward.normalized().cross(z).norm() < kMinUpSine ? Eigen::Vector3d::UnitY() : z;
+}
+
+/// False with *error set; *help when --help asked for the usage (then nothing else is read).
+bool parseArguments(int argc, char** argv, ToolOptions* options, bool* help, std::string* error) {
   options->camera.name = "tool";
   options->camera.frame = "tool_optical";
+  *help = false;
   for (int i = 1; i < argc; ++i) {
     const std::string flag = argv[i];
+    if (flag == "--help" || flag == "-h") {
+      *help = true;
+      return true;
+    }
     if (i + 1 >= argc) {
       *error = flag + " needs a value";
       return false;
@@ -69,12 +113,23 @@ bool parseArguments(int argc, char** argv, ToolOptions* options, std::string* er
       ok = parsed.has_value();
       if (ok) *target = *parsed;
     };
+    // A grid side the scene's limits allow; 0 or less was once ignored silently (the scene's own size ran).
+    const auto side = [&](std::optional<int>* target) {
+      const auto parsed = parseInt(value);
+      if (!parsed || *parsed < core::OptionLimits::kMinGridSide || *parsed > core::OptionLimits::kMaxGridSide) {
+        *error = flag + " " + value + ": takes a whole number in [" + std::to_string(core::OptionLimits::kMinGridSide) +
+                 ", " + std::to_string(core::OptionLimits::kMaxGridSide) + "]";
+        return false;
+      }
+      *target = *parsed;
+      return true;
+    };
     if (flag == "--scene") {
       options->scene = value;
     } else if (flag == "--rows") {
-      integer(&options->rows);
+      if (!side(&options->rows)) return false;
     } else if (flag == "--cols") {
-      integer(&options->cols);
+      if (!side(&options->cols)) return false;
     } else if (flag == "--frames") {
       integer(&options->frames);
     } else if (flag == "--repeat") {
@@ -103,8 +158,22 @@ bool parseArguments(int argc, char** argv, ToolOptions* options, std::string* er
   options->camera.fx_px = options->camera.fy_px = 525.0 * scale;
   options->camera.cx_px = 0.5 * (options->camera.width - 1);
   options->camera.cy_px = 0.5 * (options->camera.height - 1);
-  if (options->repeat < 1 || options->frames < 0) {
-    *error = "--repeat must be >= 1 and --frames >= 0";
+  if (options->repeat < 1 || options->repeat > kMaxRepeat) {
+    *error = "--repeat " + std::to_string(options->repeat) + ": takes a whole number in [1, " +
+             std::to_string(kMaxRepeat) + "]";
+    return false;
+  }
+  if (options->frames < 0 || options->frames > kMaxSettleFrames) {
+    *error = "--frames " + std::to_string(options->frames) + ": takes a whole number in [0, " +
+             std::to_string(kMaxSettleFrames) + "]";
+    return false;
+  }
+  if ((options->target_m - options->eye_m).norm() < kMinViewDistance_m) {
+    *error = "--eye and --target are the same point: the camera has no direction to look in";
+    return false;
+  }
+  if (!options->out_dir.empty() && !isWritableFolder(options->out_dir)) {
+    *error = "--out " + options->out_dir + ": not a folder this user can write into";
     return false;
   }
   return true;
@@ -127,35 +196,41 @@ bool writeRaw(const std::string& path, const std::vector<T>& values) {
 int main(int argc, char** argv) {
   ToolOptions options;
   std::string error;
-  if (!parseArguments(argc, argv, &options, &error)) {
-    std::cerr << "depth_camera_tool: " << error << "\n";
-    return 2;
+  bool help = false;
+  if (!parseArguments(argc, argv, &options, &help, &error)) {
+    std::cerr << "depth_camera_tool: " << error << "\n" << kUsage;
+    return kExitUsage;
+  }
+  if (help) {
+    std::cout << kUsage;
+    return kExitOk;
   }
   core::SceneOptions scene;
   std::vector<std::string> errors;
   if (!core::loadSceneFile(core::resolveScenePath(options.scene, CLOTH_SIM_SCENES_DIR), &scene, &errors)) {
     std::cerr << "depth_camera_tool: " << errors.front() << "\n";
-    return 2;
+    return kExitUsage;
   }
-  if (options.rows > 0) scene.rows = options.rows;
-  if (options.cols > 0) scene.cols = options.cols;
+  if (options.rows) scene.rows = *options.rows;
+  if (options.cols) scene.cols = *options.cols;
   scene.cameras = {options.camera};
   const std::vector<std::string> problems = core::validateSceneOptions(scene);
   if (!problems.empty()) {
     std::cerr << "depth_camera_tool: " << problems.front() << "\n";
-    return 2;
+    return kExitUsage;
   }
   core::Simulation simulation(scene);
   Eigen::Matrix3Xf colors;
   if (!core::sceneVertexColors(scene.texture, simulation.grid().uv, &colors, &error)) {
     std::cerr << "depth_camera_tool: " << error << "\n";
-    return 2;
+    return kExitUsage;
   }
   simulation.setVertexColors(colors);
   for (int f = 0; f < options.frames; ++f) simulation.advanceFrame();
 
   const core::PinholeCamera camera = core::PinholeCamera::from(options.camera);
-  const Eigen::Isometry3d pose = core::opticalLookAt(options.eye_m, options.target_m, Eigen::Vector3d::UnitZ());
+  const Eigen::Isometry3d pose =
+      core::opticalLookAt(options.eye_m, options.target_m, upAxisFor(options.target_m - options.eye_m));
   core::RenderScene view;
   view.positions_m = &simulation.state().positions_m;
   view.triangles = &simulation.grid().triangles;
@@ -179,17 +254,17 @@ int main(int argc, char** argv) {
   const auto [depth_ms, depth_min_ms] = time(false);
   const auto [color_ms, color_min_ms] = time(true);
   const long seen = std::count_if(frame.mask.begin(), frame.mask.end(), [](std::uint8_t m) { return m != 0; });
-  std::printf("{\"scene\": \"%s\", \"rows\": %d, \"cols\": %d, \"triangles\": %zu, \"width\": %d, \"height\": %d, "
+  std::printf("{\"scene\": %s, \"rows\": %d, \"cols\": %d, \"triangles\": %zu, \"width\": %d, \"height\": %d, "
               "\"cloth_pixels\": %ld, \"repeat\": %d, \"depth_ms\": %.3f, \"depth_min_ms\": %.3f, "
               "\"depth_and_color_ms\": %.3f, \"depth_and_color_min_ms\": %.3f}\n",
-              scene.name.c_str(), scene.rows, scene.cols, simulation.grid().triangles.size() / 3, camera.width,
-              camera.height, seen, options.repeat, depth_ms, depth_min_ms, color_ms, color_min_ms);
+              jsonQuoted(scene.name).c_str(), scene.rows, scene.cols, simulation.grid().triangles.size() / 3,
+              camera.width, camera.height, seen, options.repeat, depth_ms, depth_min_ms, color_ms, color_min_ms);
 
   if (!options.out_dir.empty()) {
     std::ofstream meta(options.out_dir + "/camera.json");
     meta << "{\"width\": " << camera.width << ", \"height\": " << camera.height << ", \"fx\": " << camera.fx_px
          << ", \"fy\": " << camera.fy_px << ", \"cx\": " << camera.cx_px << ", \"cy\": " << camera.cy_px
-         << ", \"scene\": \"" << scene.name << "\", \"rows\": " << scene.rows << ", \"cols\": " << scene.cols
+         << ", \"scene\": " << jsonQuoted(scene.name) << ", \"rows\": " << scene.rows << ", \"cols\": " << scene.cols
          << ", \"time_s\": " << simulation.state().time_s << ", \"world_from_optical\": [";
     for (int r = 0; r < 3; ++r) {
       meta << (r > 0 ? ", " : "") << "[" << pose.matrix()(r, 0) << ", " << pose.matrix()(r, 1) << ", "
@@ -199,8 +274,8 @@ int main(int argc, char** argv) {
     if (!meta || !writeRaw(options.out_dir + "/depth.f32", frame.depth_m) ||
         !writeRaw(options.out_dir + "/rgb.u8", frame.rgb) || !writeRaw(options.out_dir + "/mask.u8", frame.mask)) {
       std::cerr << "depth_camera_tool: cannot write into " << options.out_dir << "\n";
-      return 1;
+      return kExitRunFailed;
     }
   }
-  return 0;
+  return kExitOk;
 }

@@ -3,7 +3,8 @@
 
 Both definitions start with comment lines before their Header; the tool looked only at the first line
 and never reported stamp_rate_hz for either. Runs the installed tool against the node of
-test/ros/topic_rate.test (the hanging scene at 8 x 8, 50 Hz) and reads its JSON line.
+test/ros/topic_rate.test (the hanging scene at 8 x 8, 50 Hz) and reads its JSON line. Also: an invalid
+topic name and an infinite duration are refused (exit 2) instead of aborting or never ending.
 """
 import json
 import subprocess
@@ -18,6 +19,11 @@ FRAME_RATE_HZ = 50.0
 LOWEST_STAMP_RATE_HZ = 20.0
 HIGHEST_STAMP_RATE_HZ = 51.0
 TOPICS = ["/cloth_node/state", "/cloth_node/mesh"]
+# The tools' exit status for a bad command line (tool_common.h's kExitUsage).
+EXIT_USAGE = 2
+# Long enough for a refusal, which comes before anything is subscribed; a run that is not refused would
+# wait far longer (an infinite --wait never ended).
+REFUSAL_TIMEOUT_S = 30
 
 
 class TopicRate(unittest.TestCase):
@@ -33,6 +39,23 @@ class TopicRate(unittest.TestCase):
             self.assertIn("stamp_rate_hz", measured, "%s: %s" % (topic, measured))
             self.assertGreater(measured["stamp_rate_hz"], LOWEST_STAMP_RATE_HZ, topic)
             self.assertLess(measured["stamp_rate_hz"], HIGHEST_STAMP_RATE_HZ, topic)
+
+    def refused(self, arguments):
+        result = subprocess.run(["rosrun", "cloth_sim", "cloth_topic_rate"] + arguments, stdout=subprocess.PIPE,
+                                stderr=subprocess.PIPE, timeout=REFUSAL_TIMEOUT_S, check=False)
+        self.assertEqual(result.returncode, EXIT_USAGE, "%s: %s" % (arguments, result.stderr.decode(errors="replace")))
+        self.assertEqual(result.stdout, b"", arguments)
+        return result.stderr.decode(errors="replace")
+
+    def test_an_invalid_topic_name_is_refused_not_aborted(self):
+        # subscribe() threw ros::InvalidNameException: an abort (exit 134) instead of a message.
+        for name in ["bad name", "1abc", ""]:
+            self.assertIn("topic", self.refused([name]), name)
+
+    def test_an_infinite_duration_is_refused(self):
+        # Only ">= 0" was checked: --wait inf never ended, --seconds inf printed "seconds": inf (not JSON).
+        for flag in ["--seconds", "--wait", "--skip"]:
+            self.assertIn(flag, self.refused([flag, "inf", TOPICS[0]]), flag)
 
 
 if __name__ == "__main__":
