@@ -46,6 +46,8 @@ STATE_QUEUE = 6
 # cloth_topic_rate's --queue range (its kMaxQueue): refused up front rather than by the tool mid-run.
 MIN_QUEUE = 1
 MAX_QUEUE = 1000
+# cloth_topic_rate's longest --seconds and --skip, s (its kMaxTopicSpan_s), refused up front too.
+MAX_SPAN_S = 86400.0
 # How often the node is checked while the rate tool waits for its messages: a node that exits is news at once,
 # not after the tool's READY_S wait for a first message.
 NODE_POLL_S = 0.2
@@ -264,10 +266,10 @@ def check_arguments(parser, args):
         sizes.append(side)
     if not sizes:
         parser.error("--sizes must name at least one grid side")
-    if not (math.isfinite(args.seconds) and args.seconds > 0):
-        parser.error("--seconds must be a number above 0, not %s" % args.seconds)
-    if not (math.isfinite(args.skip) and args.skip >= 0):
-        parser.error("--skip must be a number of seconds, 0 or more, not %s" % args.skip)
+    if not (math.isfinite(args.seconds) and 0 < args.seconds <= MAX_SPAN_S):
+        parser.error("--seconds must be a number of seconds in (0, %g], not %s" % (MAX_SPAN_S, args.seconds))
+    if not (math.isfinite(args.skip) and 0 <= args.skip <= MAX_SPAN_S):
+        parser.error("--skip must be a number of seconds in [0, %g], not %s" % (MAX_SPAN_S, args.skip))
     if not MIN_QUEUE <= args.queue <= MAX_QUEUE:
         parser.error("--queue must be a whole number from %d to %d, not %d" % (MIN_QUEUE, MAX_QUEUE, args.queue))
     return scenes, sizes

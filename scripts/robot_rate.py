@@ -24,7 +24,7 @@ import time
 
 # Its master-and-node plumbing is load.py's, its measuring rates.py's (the scripts run from this folder).
 from load import start_master, wait_for
-from rates import Diagnostics, measure_rates, summarise
+from rates import MAX_SPAN_S, Diagnostics, measure_rates, summarise
 
 CALLER = "/cloth_robot_rate"
 READY_S = 30.0
@@ -102,6 +102,8 @@ def main():
     parser.add_argument("--capsules", type=int, default=10)
     parser.add_argument("--seconds", type=float, default=10.0)
     args = parser.parse_args()
+    if not (math.isfinite(args.seconds) and 0 < args.seconds <= MAX_SPAN_S):
+        parser.error("--seconds must be a number of seconds in (0, %g], not %s" % (MAX_SPAN_S, args.seconds))
 
     log = tempfile.TemporaryFile()
     master = start_master(log, CALLER)

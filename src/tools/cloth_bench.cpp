@@ -74,7 +74,7 @@ constexpr double kGripperCircle_Hz = 1.0;
 /// Frames run before timing starts: the first frames pay for allocations and cold caches.
 constexpr int kDefaultWarmupFrames = 5;
 constexpr int kDefaultBulletIterations = 1;
-/// The most --iterations (Bullet's position iterations a substep): 100 times the most its tables use (8).
+/// The most --iterations (Bullet's position iterations a substep): over 100 times the most its tables use (8).
 constexpr int kMaxBulletIterations = 1000;
 /// Bullet has no `auto`: a scene that asks for it runs Bullet at one substep per frame (what the scenes'
 /// fixed count was before `auto`; --substeps sets it).
@@ -367,8 +367,14 @@ core::Pose benchCapsulePose(const core::Simulation& sim, int k, int count, doubl
   return pose;
 }
 
+/// A request the options allow but this scene cannot take (a gripper on a pinned particle): the caller's
+/// error, exit 2, not a failed run.
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
 /// Attaches `count` grippers along the bottom row (free in every built-in scene's pinning), one particle
-/// each, spread evenly. Returns their starting poses.
+/// each, spread evenly. Returns their starting poses; UsageError where the scene pins or removes one.
 std::vector<core::Pose> attachBenchGrippers(core::Simulation& sim, int count) {
   std::vector<core::Pose> poses;
   const int cols = sim.grid().cols;
@@ -382,7 +388,7 @@ std::vector<core::Pose> attachBenchGrippers(core::Simulation& sim, int count) {
     request.particles = {particle};
     std::vector<int> held;
     std::string error;
-    if (!sim.attachGripper(request, &held, &error)) throw std::runtime_error("--grippers: " + error);
+    if (!sim.attachGripper(request, &held, &error)) throw UsageError("--grippers: " + error);
     poses.push_back(request.pose);
   }
   return poses;
@@ -660,6 +666,9 @@ int main(int argc, char** argv) {
     result = runOurs(options, scene);
 #endif
     std::cout << toJson(options, scene, result) << std::endl;
+  } catch (const UsageError& e) {
+    std::cerr << "cloth_bench: " << e.what() << "\n";
+    return kExitUsage;
   } catch (const std::exception& e) {
     std::cerr << "cloth_bench: run failed: " << e.what() << "\n";
     return kExitRunFailed;

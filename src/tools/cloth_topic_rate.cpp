@@ -47,7 +47,7 @@ constexpr double kDefaultSkip_s = 1.0;
 constexpr double kDefaultQueue = 1.0;
 constexpr double kMaxQueue = 1000.0;
 /// The longest --seconds, --wait or --skip, s (a day): their sum is the deadline, which must stay finite.
-constexpr double kMaxSpan_s = 86400.0;
+constexpr double kMaxTopicSpan_s = 86400.0;
 using cloth_sim::core::kMillisecondsPerSecond;
 constexpr double kPollPeriod_s = 0.01;
 /// A std_msgs/Header's serialised start: uint32 seq, then the stamp as uint32 seconds and nanoseconds.
@@ -203,15 +203,16 @@ int main(int argc, char** argv) {
       // Finite only: an infinite --seconds, --wait or --skip would never end and print inf, which is not JSON.
       const std::optional<double> parsed = cloth_sim::bench::parseDouble(text);
       if (!parsed || *parsed < 0.0) return usage(argument + " " + text + ": takes a finite number >= 0");
-      if (value != &queue && *parsed > kMaxSpan_s) {
-        return usage(argument + " " + text + ": at most " + std::to_string(static_cast<int>(kMaxSpan_s)) + " s");
+      if (value != &queue && *parsed > kMaxTopicSpan_s) {
+        return usage(argument + " " + text + ": at most " +
+                     std::to_string(static_cast<int>(kMaxTopicSpan_s)) + " s");
       }
       *value = *parsed;
     } else if (!argument.empty() && argument[0] == '-') {
       return usage("unknown option " + argument);
     } else {
-      // Checked here: subscribe() would throw ros::InvalidNameException and abort. An empty name is valid to
-      // ros::names but would resolve to the namespace itself.
+      // Checked here and resolved below: subscribe() would throw ros::InvalidNameException and abort. An
+      // empty name is valid to ros::names but would resolve to the namespace itself.
       std::string problem;
       if (argument.empty()) return usage("an empty topic name");
       if (!ros::names::validate(argument, problem)) return usage("topic " + argument + ": " + problem);
@@ -225,6 +226,17 @@ int main(int argc, char** argv) {
   }
 
   ros::NodeHandle handle;
+  // What ros::names::validate lets through and a subscription does not: a private name (~x: a NodeHandle
+  // refuses it) and one that resolves to the root namespace itself (/).
+  for (const std::string& topic : topics) {
+    std::string resolved;
+    try {
+      resolved = handle.resolveName(topic);
+    } catch (const ros::InvalidNameException& e) {
+      return usage("topic " + topic + ": " + e.what());
+    }
+    if (resolved.empty() || resolved == "/") return usage("topic " + topic + ": names the root namespace, not a topic");
+  }
   RateMeter meter(seconds, skip_s, static_cast<std::uint32_t>(queue));
   for (const std::string& topic : topics) meter.subscribe(handle, topic);
   // Two threads: a 5 MB message being copied on one topic does not delay the other's arrival times.
@@ -237,5 +249,5 @@ int main(int argc, char** argv) {
   spinner.stop();
   bool all_measured = false;
   std::printf("%s\n", meter.report(&all_measured).c_str());
-  return all_measured ? 0 : 1;
+  return all_measured ? cloth_sim::bench::kExitOk : cloth_sim::bench::kExitRunFailed;
 }

@@ -3,7 +3,7 @@
 //   - with --out DIR, writes what the camera sees (depth.f32, rgb.u8, mask.u8, camera.json) for
 //     scripts/camera_picture.py, which draws the depth image and its point cloud (doc/images/camera_drape.png).
 //
-//   depth_camera_tool [--scene drape] [--rows 64] [--cols 64] [--frames 150] [--repeat 50]
+//   depth_camera_tool [--scene drape] [--rows 64] [--cols 64] [--frames 300] [--repeat 50]
 //                     [--width 640] [--height 480] [--eye x,y,z] [--target x,y,z] [--out DIR]
 // The default camera stands 2 m from the drape scene's cloth, to its front right, level with its middle.
 // Image up is world +z, except for a view along z (a top view), where it is world +y. A bad option (eye equal

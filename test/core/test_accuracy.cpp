@@ -386,6 +386,7 @@ TEST(ClothBenchCommandLine, APlainRunRefusesCountsItCouldNotRun) {
       {"--rows 10 --cols 10 --frames 2 --warmup 2147483647", "--warmup 2147483647: expected an integer in [0, 1000000]"},
       {"--rows 10 --cols 10 --frames 2147483647", "--frames 2147483647: expected an integer in [1, 1000000]"},
       {"--rows 10 --cols 3 --grippers 5 --frames 2", "--grippers 5: the bottom row holds 3 particles"},
+      {"--rows 10 --cols 10 --grippers 2 --frames 2 --set pins=[bottom_edge]", "--grippers: particle 90 is already held by its pin"},
       {"--rows 10 --cols 10 --grippers 17", "--grippers 17: expected an integer in [0, 16]"},
   };
   for (const auto& [arguments, message] : refused) {

@@ -199,7 +199,8 @@ class Grippers(unittest.TestCase):
         self.assertTrue(self.detach(1).success)
         self.refused(self.detach(1), "no gripper 1")
         # A reset detaches every gripper and says which: their clients must attach again.
-        self.assertTrue(self.request(3, "refusals", particles=[5]).success)
+        attached = self.request(3, "refusals", particles=[5])
+        self.assertTrue(attached.success, attached.message)
         reset = self.reset()
         self.assertTrue(reset.success)
         self.assertTrue(reset.message.endswith("back at frame 0; detached gripper ids 3"), reset.message)
