@@ -324,6 +324,17 @@ TEST(ClothBenchTerms, AMaterialScenesTermsAreItsModuliAndEachOneChangesTheCloth)
   EXPECT_NE(output.find("self-collision"), std::string::npos) << output;
 }
 
+/// Runs cloth_bench with each {arguments, message}: each must exit 2 (a usage error) saying `message`.
+void expectRefused(const std::vector<std::pair<std::string, std::string>>& refused) {
+  for (const auto& [arguments, message] : refused) {
+    const std::string command = std::string(CLOTH_BENCH_EXECUTABLE) + " " + arguments + " 2>&1";
+    int status = -1;
+    const std::string output = runCommand(command, &status);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << command << "\n" << output;
+    EXPECT_NE(output.find(message), std::string::npos) << command << "\n" << output;
+  }
+}
+
 TEST(ClothBenchCommandLine, EveryModesHelpPrintsItsUsageAndSucceeds) {
   // `cloth_bench --help` says each mode has a --help of its own: --validate took "--help" for its test's name,
   // and --spatial asked for its --grids first (both exited 2).
@@ -362,13 +373,7 @@ TEST(ClothBenchCommandLine, RefusesWhatItWouldIgnoreMisreadOrRunForever) {
       {"--accuracy --integrators rk4 --tolerances 1e-2",
        "--tolerances: --accuracy runs no solver sweep here (implicit_euler is not among --integrators)"},
   };
-  for (const auto& [arguments, message] : refused) {
-    const std::string command = std::string(CLOTH_BENCH_EXECUTABLE) + " " + arguments + " 2>&1";
-    int status = -1;
-    const std::string output = runCommand(command, &status);
-    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << command << "\n" << output;
-    EXPECT_NE(output.find(message), std::string::npos) << command << "\n" << output;
-  }
+  expectRefused(refused);
   // An unknown option is refused once, as unknown (not also as "not an option of" the mode).
   int status = -1;
   const std::string output =
@@ -389,13 +394,7 @@ TEST(ClothBenchCommandLine, APlainRunRefusesCountsItCouldNotRun) {
       {"--rows 10 --cols 10 --grippers 2 --frames 2 --set pins=[bottom_edge]", "--grippers: particle 90 is already held by its pin"},
       {"--rows 10 --cols 10 --grippers 17", "--grippers 17: expected an integer in [0, 16]"},
   };
-  for (const auto& [arguments, message] : refused) {
-    const std::string command = std::string(CLOTH_BENCH_EXECUTABLE) + " " + arguments + " 2>&1";
-    int status = -1;
-    const std::string output = runCommand(command, &status);
-    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << command << "\n" << output;
-    EXPECT_NE(output.find(message), std::string::npos) << command << "\n" << output;
-  }
+  expectRefused(refused);
 }
 
 }  // namespace
