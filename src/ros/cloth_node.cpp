@@ -51,8 +51,7 @@ ClothNode::ClothNode(const ros::NodeHandle& node_handle, const ros::NodeHandle& 
 bool ClothNode::start(std::string* error) {
   // The whole private namespace, read once: each node parameter's type is checked by optionalParameter,
   // each scene key's by the scene-file reader (buildSimulation), so no wrong type falls back silently.
-  XmlRpc::XmlRpcValue parameters;
-  if (!ros::param::get(pnh_.getNamespace(), parameters)) parameters = XmlRpc::XmlRpcValue();
+  XmlRpc::XmlRpcValue parameters = parameterTree(pnh_.getNamespace());
   std::string parent_frame;
   std::string robot_description;
   std::string scene = kDefaultScene;
@@ -228,8 +227,8 @@ std::unique_ptr<core::Simulation> ClothNode::buildSimulation(const std::string& 
     return nullptr;
   }
   if (overlay_parameters) {
-    XmlRpc::XmlRpcValue parameters;
-    if (ros::param::get(pnh_.getNamespace(), parameters) && parameters.getType() == XmlRpc::XmlRpcValue::TypeStruct) {
+    XmlRpc::XmlRpcValue parameters = parameterTree(pnh_.getNamespace());
+    if (parameters.getType() == XmlRpc::XmlRpcValue::TypeStruct) {
       YAML::Node overlay(YAML::NodeType::Map);
       const std::vector<std::string>& keys = core::sceneKeys();
       for (auto& entry : parameters) {

@@ -49,8 +49,7 @@ class ClothViewer {
     std::string frame_id = "world";
     std::string parent_frame;
     // Each of the wrong type is refused by name (ros::param would fall back to its default in silence).
-    XmlRpc::XmlRpcValue tree;
-    if (!ros::param::get(pnh.getNamespace(), tree)) tree = XmlRpc::XmlRpcValue();
+    const XmlRpc::XmlRpcValue tree = cloth_sim::parameterTree(pnh.getNamespace());
     if (!cloth_sim::optionalParameter(tree, "state_topic", &state_topic, error) ||
         !cloth_sim::optionalParameter(tree, "mesh_topic", &mesh_topic, error) ||
         !cloth_sim::optionalParameter(tree, "mesh_rate", &mesh_rate_hz, error) ||

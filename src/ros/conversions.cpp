@@ -1,6 +1,7 @@
 #include "cloth_sim/ros/conversions.h"
 
 #include <Eigen/Geometry>
+#include <ros/param.h>
 
 #include <algorithm>
 #include <cmath>
@@ -321,6 +322,12 @@ const XmlRpc::XmlRpcValue* member(const XmlRpc::XmlRpcValue& tree, const std::st
 }
 
 }  // namespace
+
+XmlRpc::XmlRpcValue parameterTree(const std::string& ns) {
+  XmlRpc::XmlRpcValue tree;
+  if (!ros::param::get(ns, tree)) tree = XmlRpc::XmlRpcValue();
+  return tree;
+}
 
 bool optionalParameter(const XmlRpc::XmlRpcValue& tree, const std::string& name, std::string* value,
                        std::string* error) {

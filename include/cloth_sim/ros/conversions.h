@@ -72,6 +72,10 @@ core::GraspRequest toGraspRequest(const cloth_sim::Grasp& message, const Eigen::
 /// reader refuses a tag that does not fit the key: a parameter's type is checked there, once.
 YAML::Node toYaml(const XmlRpc::XmlRpcValue& value);
 
+/// Every parameter under `ns` (a node's private namespace) as one tree, read once; an empty value where
+/// there is none, so optionalParameter finds each absent.
+XmlRpc::XmlRpcValue parameterTree(const std::string& ns);
+
 /// The node's own (non-scene) parameters, read from the private namespace's tree. Absent: *value is left
 /// as it is (the default) and true. Present with another XmlRpc type (`_scene:=42`, a list for
 /// ~frame_id): false with *error naming the parameter, what it got and the type expected. The double
