@@ -23,8 +23,8 @@ namespace {
 /// Private parameters that belong to the node rather than to the scene.
 const std::set<std::string>& nodeOnlyParameters() {
   static const std::set<std::string> names{Names::kSceneParam, Names::kFrameIdParam, Names::kMeshRateParam,
-                                           Names::kParentFrameParam, Names::kTuningNamespace,
-                                           Names::kRobotDescriptionParam};
+                                           Names::kParentFrameParam, Names::kSphereFramePrefixParam,
+                                           Names::kTuningNamespace, Names::kRobotDescriptionParam};
   return names;
 }
 
@@ -58,6 +58,7 @@ bool ClothNode::start(std::string* error) {
   double mesh_rate_hz = 0.0;  // not given: the frame rate, known once the scene is built
   if (!optionalParameter(parameters, Names::kFrameIdParam, &frame_id_, error) ||
       !optionalParameter(parameters, Names::kParentFrameParam, &parent_frame, error) ||
+      !optionalParameter(parameters, Names::kSphereFramePrefixParam, &sphere_frame_prefix_, error) ||
       !optionalParameter(parameters, Names::kSceneParam, &scene, error) ||
       !optionalParameter(parameters, Names::kMeshRateParam, &mesh_rate_hz, error) ||
       !optionalParameter(parameters, Names::kRobotDescriptionParam, &robot_description, error)) {
@@ -92,7 +93,9 @@ bool ClothNode::start(std::string* error) {
     ROS_INFO("cloth_node: %zu colliders from the URDF in %s", urdf_colliders_.size(), resolved.c_str());
   }
   for (const auto& [name, value] : {std::pair<const char*, const std::string*>{Names::kFrameIdParam, &frame_id_},
-                                    {Names::kParentFrameParam, &parent_frame}, {Names::kSceneParam, &scene}}) {
+                                    {Names::kParentFrameParam, &parent_frame},
+                                    {Names::kSphereFramePrefixParam, &sphere_frame_prefix_},
+                                    {Names::kSceneParam, &scene}}) {
     const std::string problem = core::textLengthProblem(std::string("parameter ~") + name, *value);
     if (!problem.empty()) {
       *error = problem;
@@ -106,6 +109,11 @@ bool ClothNode::start(std::string* error) {
   if (!parent_frame.empty() && (parent_frame[0] == '/' || parent_frame == frame_id_)) {
     *error = "parameter ~parent_frame_id = '" + parent_frame +
              "': must be a tf frame name without a leading '/', other than ~frame_id";
+    return false;
+  }
+  if (sphere_frame_prefix_.empty() || sphere_frame_prefix_[0] == '/') {
+    *error = "parameter ~sphere_frame_prefix = '" + sphere_frame_prefix_ +
+             "': must be the non-empty start of a tf frame name, without a leading '/'";
     return false;
   }
   scenes_dir_ = ros::package::getPath("cloth_sim") + "/config/scenes";
@@ -433,7 +441,7 @@ void ClothNode::publish(const ros::Time& stamp, bool with_state) {
     colliders_pub_.publish(toColliderMarkers(*simulation_, frame_id_, stamp));
   }
   if (new_stamp) {
-    const auto transforms = toSphereTransforms(*simulation_, frame_id_, stamp);
+    const auto transforms = toSphereTransforms(*simulation_, frame_id_, stamp, sphere_frame_prefix_);
     if (!transforms.empty()) tf_broadcaster_.sendTransform(transforms);
   }
   cameras_->publish(*simulation_, stamp);  // ~points and the cameras, each only while subscribed

@@ -248,13 +248,14 @@ geometry_msgs::TransformStamped identityTransform(const std::string& parent_fram
 }
 
 std::vector<geometry_msgs::TransformStamped> toSphereTransforms(const core::Simulation& simulation,
-                                                                const std::string& frame_id, const ros::Time& stamp) {
+                                                                const std::string& frame_id, const ros::Time& stamp,
+                                                                const std::string& prefix) {
   std::vector<geometry_msgs::TransformStamped> transforms;
   const std::vector<Eigen::Vector3d> centers = simulation.sphereCenters();
   for (std::size_t i = 0; i < centers.size(); ++i) {
     geometry_msgs::TransformStamped t;
     t.header = header(frame_id, stamp);
-    t.child_frame_id = "sphere_" + std::to_string(i);
+    t.child_frame_id = prefix + std::to_string(i);
     t.transform.translation.x = centers[i].x();
     t.transform.translation.y = centers[i].y();
     t.transform.translation.z = centers[i].z();

@@ -239,7 +239,8 @@ void frame(core::Simulation& simulation) {
                 marker.scale.x > 0.0 && marker.scale.y > 0.0 && marker.scale.z > 0.0,
             "a collider marker's scale is not finite and positive (rviz refuses it)");
   }
-  for (const geometry_msgs::TransformStamped& t : cloth_sim::toSphereTransforms(simulation, "cloth", stamp)) {
+  for (const geometry_msgs::TransformStamped& t : cloth_sim::toSphereTransforms(simulation, "cloth", stamp,
+                                                                                       cloth_sim::kDefaultSphereFramePrefix)) {
     require(std::isfinite(t.transform.translation.x) && std::isfinite(t.transform.translation.y) &&
                 std::isfinite(t.transform.translation.z),
             "a sphere transform is not finite");

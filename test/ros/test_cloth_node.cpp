@@ -46,6 +46,8 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <mutex>
+#include <set>
 #include <sstream>
 #include <thread>
 
@@ -1054,6 +1056,29 @@ TEST(Ball, SphereFrameMoves) {
   EXPECT_GT(largest_m, 0.02) << "sphere_0 did not move over 1 s from " << t1;
 }
 
+TEST(Ball, TwoNodesPublishTheirSpheresUnderTheirOwnPrefixes) {
+  // ball.test also runs /left/cloth_node in frame left_world with ~sphere_frame_prefix left_sphere_. Before
+  // the parameter, both nodes sent sphere_0 (children of world and of left_world in turn), so each moved
+  // the other's frame. Every sphere frame must have its own node's frame as its only parent.
+  std::mutex mutex;
+  std::map<std::string, std::set<std::string>> parents_of;  // child frame -> the parents it was sent with
+  ros::NodeHandle nh;
+  const ros::Subscriber tf_sub =
+      nh.subscribe<tf2_msgs::TFMessage>("/tf", 100, [&](const tf2_msgs::TFMessage::ConstPtr& message) {
+        const std::lock_guard<std::mutex> lock(mutex);
+        for (const auto& t : message->transforms) parents_of[t.child_frame_id].insert(t.header.frame_id);
+      });
+  const auto both_seen = [&] {
+    const std::lock_guard<std::mutex> lock(mutex);
+    return parents_of.count("sphere_0") > 0 && parents_of.count("left_sphere_0") > 0;
+  };
+  ASSERT_TRUE(waitUntil(both_seen, 15.0)) << "sphere_0 and left_sphere_0 were not both on /tf";
+  std::this_thread::sleep_for(std::chrono::seconds(1));  // a second of both nodes' frames
+  const std::lock_guard<std::mutex> lock(mutex);
+  EXPECT_EQ(parents_of["sphere_0"], std::set<std::string>{"world"});
+  EXPECT_EQ(parents_of["left_sphere_0"], std::set<std::string>{"left_world"});
+}
+
 // ---- 8. Determinism under /use_sim_time (sim_time.test) -------------------------------------------
 
 /// Drives /clock for the sim-time tests, one exact 0.02 s frame (kTick) at a time.
@@ -1403,6 +1428,11 @@ TEST(BadParams, UnknownIntegratorIsNamed) {
 
 TEST(BadParams, AParentFrameThatIsTheFrameItselfIsNamed) {
   expectRefused("bad_parent", "_parent_frame_id:=world", {"parent_frame_id", "'world'", "other than ~frame_id"});
+}
+
+TEST(BadParams, ASphereFramePrefixWithALeadingSlashIsNamed) {
+  expectRefused("bad_sphere_prefix", "_sphere_frame_prefix:=/sphere_",
+                {"sphere_frame_prefix = '/sphere_'", "without a leading '/'"});
 }
 
 TEST(BadParams, SolverCapAndThreadsOutsideTheirRangesAreNamed) {

@@ -11,6 +11,7 @@
 #include "cloth_sim/SaveState.h"
 #include "cloth_sim/Step.h"
 #include "cloth_sim/core/simulation.h"
+#include "cloth_sim/ros/conversions.h"
 #include "cloth_sim/ros/frame_budget.h"
 #include "cloth_sim/ros/depth_cameras.h"
 #include "cloth_sim/ros/frame_inputs.h"
@@ -64,6 +65,9 @@ struct Names {
   /// When set, frame_id is published in tf as a static identity child of this frame (so rviz, whose fixed
   /// frame is frame_id, finds it in every scene, with or without sphere frames).
   static constexpr const char* kParentFrameParam = "parent_frame_id";
+  /// The sphere colliders' tf frames are this prefix and the sphere's index (children of frame_id): two
+  /// nodes with spheres on one tf tree need different prefixes, or each moves the other's frames.
+  static constexpr const char* kSphereFramePrefixParam = "sphere_frame_prefix";
   /// dynamic_reconfigure's namespace: ~tuning/set_parameters, ~tuning/parameter_updates.
   static constexpr const char* kTuningNamespace = "tuning";
   /// The paper's mouse in rviz: an interactive marker server under ~mouse (~mouse/feedback, ~mouse/update).
@@ -201,6 +205,7 @@ class ClothNode {
   ros::NodeHandle nh_;
   ros::NodeHandle pnh_;
   std::string frame_id_ = "world";
+  std::string sphere_frame_prefix_ = kDefaultSphereFramePrefix;
   std::string scenes_dir_;
   std::unique_ptr<core::Simulation> simulation_;
 

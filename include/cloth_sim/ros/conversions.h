@@ -60,9 +60,13 @@ geometry_msgs::Point toPoint(const Eigen::Vector3d& p);
 geometry_msgs::TransformStamped identityTransform(const std::string& parent_frame, const std::string& child_frame,
                                                   const ros::Time& stamp);
 
-/// tf frames sphere_<i>, children of frame_id, at the spheres' current centres.
+/// The sphere colliders' tf frames unless ~sphere_frame_prefix says otherwise: sphere_0, sphere_1, ...
+inline constexpr const char* kDefaultSphereFramePrefix = "sphere_";
+
+/// tf frames <prefix><i>, children of frame_id, at the spheres' current centres.
 std::vector<geometry_msgs::TransformStamped> toSphereTransforms(const core::Simulation& simulation,
-                                                                const std::string& frame_id, const ros::Time& stamp);
+                                                                const std::string& frame_id, const ros::Time& stamp,
+                                                                const std::string& prefix);
 
 /// A GRAB message as a core request; the target must already be in the simulation's frame.
 core::GraspRequest toGraspRequest(const cloth_sim::Grasp& message, const Eigen::Vector3d& target_in_frame_m);
