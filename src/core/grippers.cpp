@@ -6,18 +6,6 @@
 
 namespace cloth_sim::core {
 
-namespace {
-
-/// A stored orientation is a unit quaternion to within this (they are normalised when they come in).
-constexpr double kUnitQuaternionTolerance = 1e-6;
-
-bool finitePose(const Pose& pose, double max_reach_m) {
-  return pose.position_m.allFinite() && pose.position_m.norm() <= max_reach_m && pose.orientation.coeffs().allFinite() &&
-         std::abs(pose.orientation.norm() - 1.0) <= kUnitQuaternionTolerance;
-}
-
-}  // namespace
-
 std::vector<int> particlesWithin(const Eigen::Matrix3Xd& positions_m, const Eigen::Vector3d& center_m, double radius_m) {
   std::vector<int> inside;
   const double radius_sq = radius_m * radius_m;
@@ -118,7 +106,7 @@ std::string checkGrippers(const std::vector<Gripper>& grippers, const std::vecto
     if (!gripper.offsets_m.allFinite() || (gripper.offsets_m.size() > 0 && gripper.offsets_m.cwiseAbs().maxCoeff() > max_reach_m)) {
       return name + " offsets: must be finite and within " + std::to_string(max_reach_m) + " m";
     }
-    if (!finitePose(gripper.track.start, max_reach_m) || !finitePose(gripper.track.end, max_reach_m)) {
+    if (!isFinitePose(gripper.track.start, max_reach_m) || !isFinitePose(gripper.track.end, max_reach_m)) {
       return name + " pose: must be finite, within " + std::to_string(max_reach_m) + " m, with a unit quaternion";
     }
     if (!(gripper.track.duration_s > 0.0) || !std::isfinite(gripper.track.duration_s) ||

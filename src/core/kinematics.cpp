@@ -84,6 +84,11 @@ double ScriptedMotion::peakSpeed_m_per_s(double from_time_s) const {
   return speed_m_per_s;
 }
 
+bool isFinitePose(const Pose& pose, double max_reach_m) {
+  return pose.position_m.allFinite() && pose.position_m.norm() <= max_reach_m && pose.orientation.coeffs().allFinite() &&
+         std::abs(pose.orientation.norm() - 1.0) <= kUnitQuaternionTolerance;
+}
+
 Pose Body::poseAt(double time_s) const {
   if (const auto* scripted = std::get_if<ScriptedMotion>(&motion)) {
     Pose pose;
@@ -142,25 +147,22 @@ void Kinematics::setScene(const SceneOptions& options, const ClothInputs& inputs
   for (std::size_t p = 0; p < inputs.pins.size(); ++p) {
     const int particle = inputs.pins[p];
     if (inputs.isGrasped(particle)) continue;  // a held pin is off its hook and moves freely
-    const std::size_t body = addBody(
-        {static_cast<std::uint32_t>(bodies_.size()), "pin " + std::to_string(particle), hookMotion(options, inputs, p)});
+    const std::size_t body = addBody({"pin " + std::to_string(particle), hookMotion(options, inputs, p)});
     attach({body, {particle}, Eigen::Matrix3Xd::Zero(3, 1)});
   }
   for (std::size_t s = 0; s < options.colliders.spheres.size(); ++s) {
-    sphere_bodies_.push_back(addBody({static_cast<std::uint32_t>(bodies_.size()), "sphere " + std::to_string(s),
-                                      options.colliders.spheres[s].motion()}));
+    sphere_bodies_.push_back(addBody({"sphere " + std::to_string(s), options.colliders.spheres[s].motion()}));
   }
   for (const Gripper& gripper : inputs.grippers) {
     if (gripper.particles.empty()) continue;  // every particle slipped out: nothing left to carry
-    const std::size_t body = addBody({gripper.id, "gripper " + std::to_string(gripper.id) + " (" + gripper.frame + ")",
-                                      gripper.track});
+    const std::size_t body =
+        addBody({"gripper " + std::to_string(gripper.id) + " (" + gripper.frame + ")", gripper.track});
     attach({body, gripper.particles, gripper.offsets_m});
   }
   for (std::size_t c = 0; c < inputs.frame_colliders.size() && c < options.colliders.frames.size(); ++c) {
     if (!inputs.frame_colliders[c].seen) continue;
-    const std::size_t body = addBody({static_cast<std::uint32_t>(bodies_.size()),
-                                      "frame collider " + std::to_string(c) + " (" + options.colliders.frames[c].frame + ")",
-                                      inputs.frame_colliders[c].track});
+    const std::size_t body = addBody(
+        {"frame collider " + std::to_string(c) + " (" + options.colliders.frames[c].frame + ")", inputs.frame_colliders[c].track});
     frame_collider_bodies_.emplace_back(c, body);
   }
 }

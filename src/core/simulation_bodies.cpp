@@ -15,20 +15,28 @@
 
 namespace cloth_sim::core {
 
+std::string Simulation::graspValuesProblem(const Eigen::Vector3d& target_m, double stiffness_N_per_m,
+                                           const Eigen::Vector3d& extra_force_N) {
+  if (!target_m.allFinite() || target_m.norm() > kMaxGraspReach_m) {
+    return "target " + vectorText(target_m) + " m: must be finite and within " + std::to_string(kMaxGraspReach_m) +
+           " m of the origin";
+  }
+  if (!(stiffness_N_per_m >= 0.0 && stiffness_N_per_m <= OptionLimits::kMaxStiffnessN_per_m)) {
+    return "stiffness " + std::to_string(stiffness_N_per_m) + " N/m: must be in [0, " +
+           std::to_string(OptionLimits::kMaxStiffnessN_per_m) + "]";
+  }
+  if (!extra_force_N.allFinite() || extra_force_N.norm() > kMaxGraspForce_N) {
+    return "force " + vectorText(extra_force_N) + " N: must be finite and at most " +
+           std::to_string(kMaxGraspForce_N) + " N";
+  }
+  return "";
+}
+
 bool Simulation::grab(const GraspRequest& request, std::string* error) {
   const int count = grid_.particleCount();
-  if (!request.target_m.allFinite() || request.target_m.norm() > kMaxGraspReach_m) {
-    *error = "grasp target must be finite and within " + std::to_string(kMaxGraspReach_m) + " m of the origin";
-    return false;
-  }
-  if (!std::isfinite(request.stiffness_N_per_m) || request.stiffness_N_per_m < 0.0 ||
-      request.stiffness_N_per_m > OptionLimits::kMaxStiffnessN_per_m) {
-    *error = "grasp stiffness " + std::to_string(request.stiffness_N_per_m) + " N/m is outside [0, " +
-             std::to_string(OptionLimits::kMaxStiffnessN_per_m) + "]";
-    return false;
-  }
-  if (!request.extra_force_N.allFinite() || request.extra_force_N.norm() > kMaxGraspForce_N) {
-    *error = "grasp force must be finite and below " + std::to_string(kMaxGraspForce_N) + " N";
+  const std::string problem = graspValuesProblem(request.target_m, request.stiffness_N_per_m, request.extra_force_N);
+  if (!problem.empty()) {
+    *error = "grasp " + problem;
     return false;
   }
   if (request.particle < -1 || request.particle >= count) {

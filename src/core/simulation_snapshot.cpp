@@ -93,21 +93,11 @@ std::string checkInputs(const ClothInputs& inputs, const std::vector<int>& pins,
       return name + " holds particle " + std::to_string(grasp.particle) + ": must be in [0, " +
              std::to_string(particles - 1) + "]";
     }
-    if (!grasp.target_m.allFinite() || grasp.target_m.norm() > Simulation::kMaxGraspReach_m) {
-      return name + " target " + vectorText(grasp.target_m) + ": must be finite and within " +
-             std::to_string(Simulation::kMaxGraspReach_m) + " m of the origin";
-    }
-    if (!(grasp.stiffness_N_per_m >= 0.0 && grasp.stiffness_N_per_m <= OptionLimits::kMaxStiffnessN_per_m)) {
-      return name + " stiffness " + std::to_string(grasp.stiffness_N_per_m) + " N/m: must be in [0, " +
-             std::to_string(OptionLimits::kMaxStiffnessN_per_m) + "]";
-    }
+    const std::string values = Simulation::graspValuesProblem(grasp.target_m, grasp.stiffness_N_per_m, grasp.extra_force_N);
+    if (!values.empty()) return name + " " + values;
     if (!(grasp.damping_N_s_per_m >= 0.0 && grasp.damping_N_s_per_m <= OptionLimits::kMaxDampingN_s_per_m)) {
       return name + " damping " + std::to_string(grasp.damping_N_s_per_m) + " N s/m: must be in [0, " +
              std::to_string(OptionLimits::kMaxDampingN_s_per_m) + "]";
-    }
-    if (!grasp.extra_force_N.allFinite() || grasp.extra_force_N.norm() > Simulation::kMaxGraspForce_N) {
-      return name + " force " + vectorText(grasp.extra_force_N) + " N: must be finite and at most " +
-             std::to_string(Simulation::kMaxGraspForce_N) + " N";
     }
   }
   return "";
@@ -142,9 +132,8 @@ bool Simulation::restore(const SimulationSnapshot& snapshot, std::string* error)
   for (std::size_t c = 0; problem.empty() && c < snapshot.inputs.frame_colliders.size(); ++c) {
     const PoseTrack& track = snapshot.inputs.frame_colliders[c].track;
     for (const Pose* pose : {&track.start, &track.end}) {
-      if (!pose->position_m.allFinite() || pose->position_m.norm() > OptionLimits::kMaxCoordinate_m ||
-          !pose->orientation.coeffs().allFinite() || std::abs(pose->orientation.norm() - 1.0) > 1e-6 ||
-          !(track.duration_s > 0.0) || !std::isfinite(track.duration_s) || !std::isfinite(track.start_time_s)) {
+      if (!isFinitePose(*pose, OptionLimits::kMaxCoordinate_m) || !(track.duration_s > 0.0) ||
+          !std::isfinite(track.duration_s) || !std::isfinite(track.start_time_s)) {
         problem = "frame collider " + std::to_string(c) + " track: poses must be finite with unit quaternions, the duration > 0";
         break;
       }

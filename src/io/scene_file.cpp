@@ -33,8 +33,6 @@ constexpr std::size_t kMaxQuotedChars = 32;
 /// Most characters of a YAML parser message quoted (the parser's own words, cut all the same).
 constexpr std::size_t kMaxParserMessageChars = 80;
 
-const char* const kCoreTagPrefix = "tag:yaml.org,2002:";
-
 /// Text from a file, quoted for an error message: at most kMaxQuotedChars characters, control characters
 /// and non-ASCII bytes shown as '?', and "..." when cut.
 std::string quoted(const std::string& text) {

@@ -560,6 +560,7 @@ bool ClothNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response
   const std::string grasps = core::idList(simulation_->grasps());
   const std::string grippers = core::idList(simulation_->grippers());
   simulation_->reset();
+  last_report_ = core::FrameReport();  // no frame since: the diagnostics read 0 substeps and iterations
   asleep_ = false;  // frame 0 is computed, not slept through
   grippers_->synchronize();  // a reset lets every gripper go
   forgetPublished();  // the cloth back at its start goes out whatever the clock reads

@@ -62,6 +62,12 @@ class ClothViewer {
       *error = "parameters ~state_topic = '" + state_topic + "', ~mesh_topic = '" + mesh_topic + "': must name topics";
       return false;
     }
+    // Resolved here, where an invalid name (9bad, a%b, ~state: NodeHandles take no ~ names) is refused by
+    // name: subscribe() and advertise() would throw ros::InvalidNameException and abort the viewer.
+    ros::NodeHandle nh;
+    if (!resolveTopic(nh, "state_topic", &state_topic, error) || !resolveTopic(pnh, "mesh_topic", &mesh_topic, error)) {
+      return false;
+    }
     if (!parent_frame.empty()) {
       if (frame_id.empty() || frame_id[0] == '/' || parent_frame[0] == '/' || parent_frame == frame_id) {
         *error = "parameters ~frame_id = '" + frame_id + "', ~parent_frame_id = '" + parent_frame +
@@ -81,13 +87,31 @@ class ClothViewer {
     }
     mesh_schedule_ = cloth_sim::MeshSchedule(mesh_rate_hz);
     mesh_pub_ = pnh.advertise<visualization_msgs::Marker>(mesh_topic, 2);
-    state_sub_ = ros::NodeHandle().subscribe(state_topic, kStateQueue, &ClothViewer::onState, this);
+    state_sub_ = nh.subscribe(state_topic, kStateQueue, &ClothViewer::onState, this);
     ROS_INFO("cloth_viewer: %s -> %s at most %.0f Hz", state_sub_.getTopic().c_str(), mesh_pub_.getTopic().c_str(),
              mesh_rate_hz);
     return true;
   }
 
  private:
+  /// *topic resolved in handle's namespace, or false with *error naming the parameter and why.
+  static bool resolveTopic(const ros::NodeHandle& handle, const char* parameter, std::string* topic,
+                           std::string* error) {
+    std::string resolved;
+    try {
+      resolved = handle.resolveName(*topic);
+    } catch (const ros::InvalidNameException& e) {
+      *error = std::string("parameter ~") + parameter + " = '" + *topic + "': not a valid topic name (" + e.what() + ")";
+      return false;
+    }
+    if (resolved.empty() || resolved == "/") {
+      *error = std::string("parameter ~") + parameter + " = '" + *topic + "': names the root namespace, not a topic";
+      return false;
+    }
+    *topic = resolved;
+    return true;
+  }
+
   void onState(const cloth_sim::ClothState::ConstPtr& message) {
     const ros::Time stamp = message->header.stamp;
     // In seconds as doubles: ros::Time's own difference throws (and would end the viewer) when a peer's

@@ -1,5 +1,7 @@
 #include "cloth_sim/ros/conversions.h"
 
+#include "cloth_sim/io/scene_file.h"  // kCoreTagPrefix
+
 #include <Eigen/Geometry>
 #include <ros/param.h>
 
@@ -47,6 +49,8 @@ constexpr double kDrawnInset_m = 0.01;
 /// Smallest drawn size, m: a collider thinner than twice the inset still shows (rviz rejects scale <= 0).
 constexpr double kMinDrawnSize_m = 0.002;
 constexpr float kColliderAlpha = 0.6f;
+/// Colliders are drawn mid grey, apart from the cloth's own colours.
+constexpr float kColliderGrey = 0.55f;
 
 visualization_msgs::Marker colliderMarker(const std::string& frame_id, const ros::Time& stamp, const std::string& ns,
                                           int id, int type, const Eigen::Vector3d& center_m,
@@ -65,7 +69,7 @@ visualization_msgs::Marker colliderMarker(const std::string& frame_id, const ros
   marker.scale.x = size_m.x();
   marker.scale.y = size_m.y();
   marker.scale.z = size_m.z();
-  marker.color.r = marker.color.g = marker.color.b = 0.55f;
+  marker.color.r = marker.color.g = marker.color.b = kColliderGrey;
   marker.color.a = kColliderAlpha;
   return marker;
 }
@@ -282,7 +286,7 @@ namespace {
 template <typename T>
 YAML::Node taggedScalar(const T& value, const char* type) {
   YAML::Node node(value);
-  node.SetTag(std::string("tag:yaml.org,2002:") + type);
+  node.SetTag(std::string(core::kCoreTagPrefix) + type);
   return node;
 }
 

@@ -11,17 +11,6 @@ core::Pose toPose(const geometry_msgs::TransformStamped& transform) {
   return pose;
 }
 
-bool FrameInputs::poseOf(const std::string& child, const std::string& frame, const ros::Time& time, core::Pose* pose,
-                         std::string* why) const {
-  try {
-    *pose = toPose(buffer_.lookupTransform(frame, child, time));
-    return true;
-  } catch (const tf2::TransformException& e) {
-    *why = e.what();
-    return false;
-  }
-}
-
 bool FrameInputs::poseAtOrNewest(const std::string& child, const std::string& frame, const ros::Time& time,
                                  core::Pose* pose, ros::Time* stamp, std::string* why) const {
   try {

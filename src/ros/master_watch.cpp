@@ -17,6 +17,10 @@ using XmlRpc::XmlRpcValue;
 /// The slave and master APIs answer [code, status message, value]; code 1 is success.
 constexpr int kXmlRpcSuccess = 1;
 constexpr int kXmlRpcAnswerSize = 3;
+constexpr int kXmlRpcAnswerValue = 2;
+/// getSystemState's value: [publishers, subscribers, services].
+constexpr int kSystemStateParts = 3;
+constexpr int kSystemStateServices = 2;
 /// getBusInfo's row for one connection: [id, other end's XML-RPC URI, direction, transport, topic, ...].
 constexpr int kBusInfoPeer = 1;
 constexpr int kBusInfoDirection = 2;
@@ -38,7 +42,7 @@ bool callOwnSlave(const std::string& method, const XmlRpcValue& args, XmlRpcValu
       static_cast<int>(answer[0]) != kXmlRpcSuccess) {
     return false;
   }
-  *value = answer[2];
+  *value = answer[kXmlRpcAnswerValue];
   return true;
 }
 
@@ -129,8 +133,8 @@ bool MasterWatch::masterKnowsThisNode() const {
 
 void MasterWatch::rememberServices() {
   XmlRpcValue state;
-  if (!callMaster("getSystemState", arguments({}), &state) || !isArray(state) || state.size() != 3) return;
-  const XmlRpcValue& services = state[2];
+  if (!callMaster("getSystemState", arguments({}), &state) || !isArray(state) || state.size() != kSystemStateParts) return;
+  const XmlRpcValue& services = state[kSystemStateServices];
   if (!isArray(services)) return;
   const std::string& self = ros::this_node::getName();
   for (int i = 0; i < services.size(); ++i) {

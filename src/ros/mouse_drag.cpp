@@ -9,6 +9,11 @@ namespace cloth_sim {
 
 namespace {
 
+/// The interactive marker's size in rviz, m (its MOVE_3D handle is drawn at this scale).
+constexpr float kMarkerScale_m = 0.2f;
+/// The handle's opacity: a see-through copy of the mesh over the ~mesh drawing.
+constexpr float kHandleAlpha = 0.3f;
+
 Eigen::Vector3d toEigen(const geometry_msgs::Point& p) { return Eigen::Vector3d(p.x, p.y, p.z); }
 
 }  // namespace
@@ -30,15 +35,15 @@ void MouseDrag::update(const core::Simulation& simulation, const std::string& fr
   marker.name = kMarkerName;
   marker.description = "drag the cloth";
   marker.pose.orientation.w = 1.0;  // the mesh's points are in frame_id: the marker sits at its origin
-  marker.scale = 0.2f;
+  marker.scale = kMarkerScale_m;
   visualization_msgs::InteractiveMarkerControl control;
   control.name = "drag";
   control.interaction_mode = visualization_msgs::InteractiveMarkerControl::MOVE_3D;
   control.always_visible = true;
   visualization_msgs::Marker mesh = toMeshMarker(simulation, frame_id, ros::Time(0));
   mesh.header = std_msgs::Header();  // inside a control: in the marker's frame
-  mesh.color.a = 0.3f;               // a see-through handle over the ~mesh drawing
-  for (auto& colour : mesh.colors) colour.a = 0.3f;
+  mesh.color.a = kHandleAlpha;
+  for (auto& colour : mesh.colors) colour.a = kHandleAlpha;
   control.markers.push_back(mesh);
   marker.controls.push_back(control);
   server_->insert(marker, [this](const visualization_msgs::InteractiveMarkerFeedbackConstPtr& feedback) {

@@ -25,6 +25,11 @@ enum class Mode { kAccuracy, kSpatial, kStabilityMap, kTerms, kSolverSweep };
 /// A setting is timed again (the simulation re-run) until its runs add up to ToolOptions::min_timing_s of CPU, at
 /// most this many times; the cheapest run is the cost (the others met other processes on the machine).
 constexpr int kMaxTimingRuns = 5;
+/// How the cost columns were timed, for the tables' legends: "best of up to 5 runs", or "one run" where
+/// --min-timing 0 asked for a single run.
+inline std::string timingRunsText(double min_timing_s) {
+  return min_timing_s > 0.0 ? "best of up to " + std::to_string(kMaxTimingRuns) + " runs" : "one run";
+}
 using core::kMillisecondsPerSecond;
 
 struct GridSize {

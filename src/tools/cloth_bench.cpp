@@ -411,7 +411,10 @@ BenchResult runOurs(const BenchOptions& options, const core::SceneOptions& scene
   BenchResult result;
   result.side = "cloth_sim";
   result.integrator = core::integratorName(scene.integrator);
-  result.stiffness = scene.springs[static_cast<int>(core::SpringKind::kStructural)].stiffness_N_per_m;
+  // A material scene's springs follow from its material and grid (resolveMaterial), not from the
+  // SceneOptions defaults it leaves in place.
+  result.stiffness =
+      core::resolveMaterial(scene).springs[static_cast<int>(core::SpringKind::kStructural)].stiffness_N_per_m;
   result.max_strain = sim.maxStructuralStrain();
 
   std::vector<double> frame_ms;

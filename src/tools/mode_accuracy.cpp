@@ -210,8 +210,8 @@ int runAccuracy(const ToolOptions& options, const core::SceneOptions& scene) {
   for (std::size_t i = 0; i < results.size(); ++i) results[i].pareto = front[i];
 
   std::cout << "\n";
-  std::cout << "cost: CPU time of the frames (best of up to " << kMaxTimingRuns
-            << " runs); error: position against the reference over every frame and particle; * = Pareto front "
+  std::cout << "cost: CPU time of the frames (" << timingRunsText(options.min_timing_s)
+            << "); error: position against the reference over every frame and particle; * = Pareto front "
                "(cost against max error)\n";
   printTable(std::cout, results);
   std::cout << "\n";

@@ -154,8 +154,8 @@ int runSolverSweep(const ToolOptions& options, const core::SceneOptions& given) 
   std::cout << "reference: CG to a relative residual of " << formatNumber(reference_tolerance)
             << " without a cap; tolerance rows: no cap; cap rows: the scene's tolerance "
             << formatNumber(scene.solver.tolerance) << "\n"
-            << "cost: CPU per frame (best of up to " << kMaxTimingRuns
-            << " runs); converged: frames whose every solve reached its tolerance; error: |x - x_ref| of any "
+            << "cost: CPU per frame (" << timingRunsText(options.min_timing_s)
+            << "); converged: frames whose every solve reached its tolerance; error: |x - x_ref| of any "
                "particle, the largest over every frame (max) and at the last frame (final)\n";
   std::cout << "reference check: CG to " << formatNumber(check_tolerance) << " differs from the reference by "
             << formatNumber(uncertainty.max_m) << " m at most over every frame ("

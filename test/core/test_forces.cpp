@@ -187,7 +187,25 @@ TEST(Grasp, InvalidRequestsAreRefusedAndChangeNothing) {
   bad.particle = 0;
   bad.target_m = Eigen::Vector3d(std::nan(""), 0, 0);
   EXPECT_FALSE(sim.grab(bad, &error));
+  EXPECT_NE(error.find("grasp target (nan, 0, 0) m: must be finite"), std::string::npos) << error;
   EXPECT_TRUE(sim.grasps().empty());
+}
+
+TEST(Grasp, AForceOfAtMostKMaxGraspForceIsTakenAndOneOverItRefused) {
+  // The README and both checks (a new GRAB, a restored grasp) say "at most": 10,000 N exactly is taken.
+  Simulation sim(SceneOptions{});
+  GraspRequest request;
+  request.particle = 0;
+  request.target_m = sim.state().positions_m.col(0);
+  request.extra_force_N = Eigen::Vector3d(0.0, Simulation::kMaxGraspForce_N, 0.0);
+  std::string error;
+  EXPECT_TRUE(sim.grab(request, &error)) << error;
+  request.id = 1;
+  request.extra_force_N.y() = std::nextafter(Simulation::kMaxGraspForce_N, 2.0 * Simulation::kMaxGraspForce_N);
+  EXPECT_FALSE(sim.grab(request, &error));
+  EXPECT_NE(error.find("grasp force (0, 10000"), std::string::npos) << error;
+  EXPECT_NE(error.find("must be finite and at most 10000"), std::string::npos) << error;
+  EXPECT_EQ(sim.grasps().size(), 1u);
 }
 
 TEST(Grasp, AReleasedPinIsHookedAgainWhereItWasLetGo) {

@@ -150,7 +150,7 @@ TEST(Kinematics, AParticleHeldOnABodyTurningAboutAnAxisThroughNoneOfThemMovesRig
   track.end.orientation = Eigen::Quaterniond(quarter);
   track.duration_s = 0.1;
   Kinematics kinematics;
-  const std::size_t body = kinematics.addBody({7, "hand", track});
+  const std::size_t body = kinematics.addBody({"hand", track});
   Eigen::Matrix3Xd start_m(3, 3);
   start_m << 0.0, 0.1, -0.05, 0.0, 0.0, 0.08, 0.0, 0.02, 0.0;
   const std::vector<int> held{4, 1, 9};

@@ -555,6 +555,29 @@ TEST_F(NodeTest, ResetRestoresTheFirstFrame) {
   EXPECT_TRUE(sameBits(*frame0, *reset));
   ASSERT_TRUE(callService(nodeTopic("reset"), trigger));
   EXPECT_EQ(trigger.response.message, "scene 'hanging' back at frame 0") << "no grasp was left to release";
+
+  // Paused after a reset there is no last frame: the diagnostics read 0 substeps and iterations (README,
+  // "Diagnostics"), not the frame before the reset's. Before, they kept the last frame's report.
+  ASSERT_NO_FATAL_FAILURE(setPaused(false));
+  ASSERT_TRUE(states_->waitFor([](const ClothState& s) { return s.frame >= 10; }, 15.0, states_->count()));
+  ASSERT_NO_FATAL_FAILURE(setPaused(true));
+  Monitor<diagnostic_msgs::DiagnosticArray> diagnostics(nh_, "/diagnostics");
+  ASSERT_TRUE(callService(nodeTopic("reset"), trigger));
+  const std::string name = nodeName().substr(1) + ": simulation";
+  std::map<std::string, std::string> values;
+  const auto at_frame_0 = [&](const diagnostic_msgs::DiagnosticArray& array) {
+    for (const auto& status : array.status) {
+      if (status.name != name) continue;
+      values.clear();
+      for (const auto& kv : status.values) values[kv.key] = kv.value;
+      return values["frame"] == "0";
+    }
+    return false;
+  };
+  ASSERT_TRUE(diagnostics.waitFor(at_frame_0, 10.0, diagnostics.count())) << "no diagnostics at frame 0 after reset";
+  EXPECT_EQ(values["substeps used"], "0");
+  EXPECT_EQ(values["solver iterations per step"], "0");
+  ASSERT_NO_FATAL_FAILURE(setPaused(false));
 }
 
 TEST_F(NodeTest, PausedStepAdvancesExactlyNFrames) {

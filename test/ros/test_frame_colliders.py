@@ -29,6 +29,9 @@ RADIUS_M = 0.04
 CORE_M = 0.5
 DEPTH_M = 0.002  # the scene's contact band
 SPEED_M_PER_S = 5.0
+SWEEP_END_Y_M = 0.8  # the sweeper goes from -0.8 m to 0.8 m along y and stays there
+REST_FRAMES = 25  # half a second of states
+REST_MOTION_M = 1e-3  # the most any particle may move over REST_FRAMES for the cloth to count as at rest
 PUBLISH_HZ = 100.0
 LINK_FRAMES = ["sweeper", "ball_link", "rod_link", "plate_link", "mesh_link"]
 
@@ -58,8 +61,8 @@ class Frames:
         with self.lock:
             start = self.sweep_start
         if start is None:
-            return -0.8
-        return min(-0.8 + SPEED_M_PER_S * (now - start).to_sec(), 0.8)
+            return -SWEEP_END_Y_M
+        return min(-SWEEP_END_Y_M + SPEED_M_PER_S * (now - start).to_sec(), SWEEP_END_Y_M)
 
     def run(self):
         rate = rospy.Rate(PUBLISH_HZ)
@@ -136,11 +139,25 @@ class FrameColliders(unittest.TestCase):
         return False
 
     def test_a_capsule_sweeping_at_5_m_per_s_leaves_no_particle_inside_in_any_frame(self):
-        # The capsule is drawn once its frame is known; the cloth has come to rest by then.
+        # The capsule is drawn once its frame is known; the sweep starts once the cloth is at rest (its
+        # particles moved under REST_MOTION_M over the last REST_FRAMES states), not after a fixed sleep.
         self.assertTrue(self.wait_for(lambda: len(self.markers) > 20), "no capsule on ~colliders")
-        time.sleep(1.0)
+
+        def at_rest():
+            stamps = sorted(self.states)
+            if len(stamps) <= REST_FRAMES:
+                return False
+            now, before = self.states[stamps[-1]], self.states[stamps[-1 - REST_FRAMES]]
+            return max(abs(a.x - b.x) + abs(a.y - b.y) + abs(a.z - b.z)
+                       for a, b in zip(now.positions, before.positions)) < REST_MOTION_M
+        self.assertTrue(self.wait_for(at_rest), "the cloth never came to rest before the sweep")
         self.frames.start_sweep()
-        time.sleep(1.6 / SPEED_M_PER_S + 0.5)  # from y = -0.8 to 0.8, then a little more
+        sweep_start_ns = rospy.Time.now().to_nsec()
+
+        def swept_and_drawn():  # a state and a capsule at the sweep's end (y = 0.8), frames after it began
+            return any(stamp > sweep_start_ns and marker.pose.position.y >= SWEEP_END_Y_M - 1e-9
+                       and stamp in self.states for stamp, marker in self.markers.items())
+        self.assertTrue(self.wait_for(swept_and_drawn), "the capsule never reached the end of its sweep")
         with self.lock:
             pairs = [(self.states[s], self.markers[s]) for s in sorted(self.markers) if s in self.states]
         crossing = 0

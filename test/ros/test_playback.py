@@ -138,10 +138,14 @@ class Playback(unittest.TestCase):
 
     def test_the_viewer_refuses_a_parameter_of_the_wrong_type_by_name(self):
         # ros::param's defaults used to take over in silence: a mesh_rate of 'abc' drew at 50 Hz, a
-        # publish_mesh of 0 still drew, an empty state_topic subscribed to '/'.
+        # publish_mesh of 0 still drew, an empty state_topic subscribed to '/'; a topic name ROS refuses
+        # (9bad, a%b, ~state) aborted the viewer (exit 134).
         # A viewer of its own name for each: a private parameter set from the command line stays on the master.
         for k, (argument, named) in enumerate((("_mesh_rate:=abc", "~mesh_rate"), ("_publish_mesh:=0", "~publish_mesh"),
-                                               ("_state_topic:=", "~state_topic"), ("_frame_id:=5", "~frame_id"))):
+                                               ("_state_topic:=", "~state_topic"), ("_frame_id:=5", "~frame_id"),
+                                               ("_state_topic:=9bad", "~state_topic"),
+                                               ("_state_topic:=~state", "~state_topic"),
+                                               ("_mesh_topic:=a%b", "~mesh_topic"))):
             viewer = subprocess.run(["rosrun", "cloth_sim", "cloth_viewer", "__name:=bad_viewer_%d" % k, argument],
                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=DEADLINE_S)
             output = viewer.stdout.decode(errors="replace")

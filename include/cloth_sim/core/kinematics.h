@@ -49,6 +49,13 @@ struct Pose {
   Eigen::Vector3d transform(const Eigen::Vector3d& local_m) const { return position_m + orientation * local_m; }
 };
 
+/// A stored orientation is a unit quaternion to within this (they are normalised when they come in).
+inline constexpr double kUnitQuaternionTolerance = 1e-6;
+
+/// A pose a gripper, a frame collider or a state file may hold: finite, at most max_reach_m from the
+/// origin, its orientation a unit quaternion.
+bool isFinitePose(const Pose& pose, double max_reach_m);
+
 /// A rigid body's velocity, world frame: the origin's linear velocity and the angular velocity.
 struct Twist {
   Eigen::Vector3d linear_m_per_s = Eigen::Vector3d::Zero();
@@ -109,7 +116,6 @@ struct ScriptedMotion {
 struct Body {
   using Motion = std::variant<ScriptedMotion, PoseTrack>;
 
-  std::uint32_t id = 0;
   std::string name;  ///< for messages: "pin 19", "sphere 0"
   Motion motion;
 
@@ -136,7 +142,6 @@ class Kinematics {
   void clear();
 
   const std::vector<Body>& bodies() const { return bodies_; }
-  const std::vector<Attachment>& attachments() const { return attachments_; }
 
   /// The motion of the hook of pin inputs.pins[pin]: the hook inputs.pin_anchors_m.col(pin), the scene's
   /// swing (pin_motion_amplitude, pin_motion_period) and the pin's travel over pin_travel_time.

@@ -45,8 +45,6 @@ class MultigridPreconditioner final : public Preconditioner {
 
   /// Levels of the last setup, finest first (0 when it fell back to block-Jacobi).
   int levels() const { return static_cast<int>(levels_.size()); }
-  /// The assembled finest-level system of the last setup (tests compare it with systemProduct).
-  const GridBlockMatrix& finestMatrix() const { return levels_.front().matrix; }
 
  private:
   /// Interpolation along one side: fine index f takes weight[f] of coarse parent[f] and weight2[f] of

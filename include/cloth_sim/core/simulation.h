@@ -104,7 +104,12 @@ class Simulation {
 
   /// A grasp target further than this from the origin (m) is refused.
   static constexpr double kMaxGraspReach_m = 1000.0;
+  /// A grasp's extra force above this magnitude is refused, N.
   static constexpr double kMaxGraspForce_N = 1e4;
+  /// Why a grasp's target (m), stiffness (N/m) and extra force (N) cannot be held ("target (x, y, z) m:
+  /// must be ..."), or "" when they can: one rule for a new GRAB (grab) and a restored grasp (restore).
+  static std::string graspValuesProblem(const Eigen::Vector3d& target_m, double stiffness_N_per_m,
+                                        const Eigen::Vector3d& extra_force_N);
   /// Most grasps held at once; each costs work in every force evaluation.
   static constexpr std::size_t kMaxGrasps = 16;
   /// Most grippers held at once (the issue asks for at least 8).

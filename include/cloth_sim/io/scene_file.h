@@ -18,6 +18,10 @@ namespace cloth_sim::core {
 /// before it is opened, so no request can make the node read (and quote) a huge file.
 constexpr std::uintmax_t kMaxSceneFileBytes = 1024 * 1024;
 
+/// The YAML core schema's tag prefix (`!!str` is this and `str`): the reader checks a scalar's type by it,
+/// and the node tags its parameters' values with it.
+inline constexpr const char* kCoreTagPrefix = "tag:yaml.org,2002:";
+
 /// Every key a scene map may hold.
 const std::vector<std::string>& sceneKeys();
 

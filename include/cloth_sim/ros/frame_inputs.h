@@ -41,9 +41,6 @@ class FrameInputs {
     }
   }
 
-  /// The pose of tf frame `child` in `frame` at `time` (ros::Time(0): the latest), or false with *why.
-  bool poseOf(const std::string& child, const std::string& frame, const ros::Time& time, core::Pose* pose,
-              std::string* why) const;
   /// The pose of `child` in `frame` at `time`, or, when tf has nothing that late yet (a publisher a little
   /// behind the simulation, or one that stopped), the newest it has; *stamp is the stamp of the transform
   /// used. False with *why when tf knows no path between them at all.

@@ -41,7 +41,6 @@ class MouseDrag {
 
   /// Redraws the marker as the cloth stands (at most every kShapeRefreshPeriod_s, never while dragging).
   void update(const core::Simulation& simulation, const std::string& frame_id, const ros::Time& now);
-  bool dragging() const { return dragging_; }
 
  private:
   void onFeedback(const visualization_msgs::InteractiveMarkerFeedbackConstPtr& feedback);
