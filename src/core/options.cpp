@@ -157,6 +157,12 @@ void validateCameras(const std::vector<CameraOptions>& cameras, Problems& proble
   }
 }
 
+/// Whether rows and cols are within OptionLimits: only then may rows x cols be formed and allocated.
+bool gridSidesInRange(int rows, int cols) {
+  using L = OptionLimits;
+  return rows >= L::kMinGridSide && rows <= L::kMaxGridSide && cols >= L::kMinGridSide && cols <= L::kMaxGridSide;
+}
+
 /// Most corners an outline polygon may have.
 constexpr std::size_t kMaxOutlineVertices = 4096;
 
@@ -182,8 +188,7 @@ void validateOutline(const SceneOptions& o, const std::vector<int>& pinned, Prob
       break;
     }
   }
-  const bool grid_valid = o.rows >= L::kMinGridSide && o.rows <= L::kMaxGridSide && o.cols >= L::kMinGridSide &&
-                          o.cols <= L::kMaxGridSide && std::isfinite(o.width_m) && o.width_m > 0.0 &&
+  const bool grid_valid = gridSidesInRange(o.rows, o.cols) && std::isfinite(o.width_m) && o.width_m > 0.0 &&
                           std::isfinite(o.height_m) && o.height_m > 0.0;
   if (problems.size() != before || !grid_valid) return;
   const std::vector<std::uint8_t> mask = outlineMask(o);
@@ -244,6 +249,11 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   for (std::size_t i = 0; i < o.pins.size(); ++i) checkText("pins[" + std::to_string(i) + "]", o.pins[i]);
   problems.inRange("rows", o.rows, L::kMinGridSide, L::kMaxGridSide);
   problems.inRange("cols", o.cols, L::kMinGridSide, L::kMaxGridSide);
+  // Every check from here on may form rows x cols: the pins' indices, the outline's mask, a material's
+  // kept area. Past the limits that product overflows an int (100000 x 100000) or allocates gigabytes
+  // (an edge of 2e9 pins: bad_alloc out of validation, std::terminate at the node's start-up), so a grid
+  // outside them is reported with nothing that depends on it.
+  if (!gridSidesInRange(o.rows, o.cols)) return problems.take();
   problems.positive("width", o.width_m, L::kMaxClothSide_m);
   problems.positive("height", o.height_m, L::kMaxClothSide_m);
   problems.finiteVector("origin", o.origin_m, L::kMaxCoordinate_m);
@@ -269,9 +279,8 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   if (o.has_material) {
     const std::vector<std::string> material_problems = validateMaterial(o.material);
     for (const std::string& problem : material_problems) problems.fail(problem);
-    const bool grid_valid = o.rows >= L::kMinGridSide && o.cols >= L::kMinGridSide && std::isfinite(o.width_m) &&
-                            o.width_m > 0.0 && std::isfinite(o.height_m) && o.height_m > 0.0 &&
-                            o.gravity_m_per_s2.allFinite();
+    const bool grid_valid = std::isfinite(o.width_m) && o.width_m > 0.0 && std::isfinite(o.height_m) &&
+                            o.height_m > 0.0 && o.gravity_m_per_s2.allFinite();
     constants_known = material_problems.empty() && grid_valid;
     if (constants_known) resolved = resolveMaterial(o);
     derived_prefix = "material gives ";
@@ -311,7 +320,7 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   problems.positive("wind_gust_period", o.wind.gust_period_s, L::kMaxPeriod_s);
 
   std::string pin_error;
-  const std::vector<int> pinned = resolvePins(o.pins, std::max(o.rows, 2), std::max(o.cols, 2), &pin_error);
+  const std::vector<int> pinned = resolvePins(o.pins, o.rows, o.cols, &pin_error);
   if (!pin_error.empty()) problems.fail(pin_error);
   validateOutline(o, pinned, problems);
   problems.finiteVector("pin_motion_amplitude", o.pin_motion_amplitude_m, L::kMaxCoordinate_m);
@@ -328,9 +337,8 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
     problems.speedAtMost("pin_motion_amplitude and pin_motion_period (|A| 2 pi / T)",
                          swingPeakSpeed_m_per_s(o.pin_motion_amplitude_m, o.pin_motion_period_s), L::kMaxPinSpeed_m_per_s);
   }
-  const bool grid_valid = o.rows >= L::kMinGridSide && o.cols >= L::kMinGridSide && std::isfinite(o.width_m) &&
-                          std::isfinite(o.height_m) && o.origin_m.allFinite() && o.u_axis.allFinite() &&
-                          o.v_axis.allFinite();
+  const bool grid_valid = std::isfinite(o.width_m) && std::isfinite(o.height_m) && o.origin_m.allFinite() &&
+                          o.u_axis.allFinite() && o.v_axis.allFinite();
   if (grid_valid && pin_error.empty() && std::isfinite(o.pin_travel_time_s) && o.pin_travel_time_s > 0.0) {
     std::ostringstream fields;
     fields << "pin_positions and pin_travel_time (" << kSmoothstepPeakRate << " x longest trip / time)";
@@ -403,7 +411,9 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
 }
 
 SceneOptions resolveMaterial(const SceneOptions& options) {
-  if (!options.has_material) return options;
+  // retune and restore resolve before they compare the grid: a grid outside the limits would have its
+  // outline's mask allocated (rows x cols bytes) before it was refused.
+  if (!options.has_material || !gridSidesInRange(options.rows, options.cols)) return options;
   SceneOptions resolved = options;
   const MaterialConstants constants =
       materialConstants(options.material, options.bend_model, options.rows, options.cols, options.width_m,
@@ -485,10 +495,20 @@ double paperWindCoefficientPerTriangle_N_s_per_m(const SceneOptions& o) {
 }
 
 std::vector<int> resolvePins(const std::vector<std::string>& selectors, int rows, int cols, std::string* error) {
+  // Indices are formed in 64 bits and the sides checked first: an int holds every index of a grid within
+  // the limits (512 x 512), and an edge of a larger one would allocate its length in indices.
+  if (!gridSidesInRange(rows, cols)) {
+    *error = "pins: cannot be resolved on a " + std::to_string(rows) + " x " + std::to_string(cols) +
+             " grid (rows and cols must be in [" + std::to_string(OptionLimits::kMinGridSide) + ", " +
+             std::to_string(OptionLimits::kMaxGridSide) + "])";
+    return {};
+  }
+  const std::int64_t count = static_cast<std::int64_t>(rows) * cols;
+  const auto index = [cols](std::int64_t row, std::int64_t col) { return static_cast<int>(row * cols + col); };
   std::vector<int> pins;
   const auto edge = [&](int first_row, int last_row, int first_col, int last_col) {
     for (int r = first_row; r <= last_row; ++r)
-      for (int c = first_col; c <= last_col; ++c) pins.push_back(r * cols + c);
+      for (int c = first_col; c <= last_col; ++c) pins.push_back(index(r, c));
   };
   for (const std::string& selector : selectors) {
     if (selector == "top_left") {
@@ -496,9 +516,9 @@ std::vector<int> resolvePins(const std::vector<std::string>& selectors, int rows
     } else if (selector == "top_right") {
       pins.push_back(cols - 1);
     } else if (selector == "bottom_left") {
-      pins.push_back((rows - 1) * cols);
+      pins.push_back(index(rows - 1, 0));
     } else if (selector == "bottom_right") {
-      pins.push_back(rows * cols - 1);
+      pins.push_back(index(rows - 1, cols - 1));
     } else if (selector == "top_edge") {
       edge(0, 0, 0, cols - 1);
     } else if (selector == "bottom_edge") {
@@ -509,23 +529,23 @@ std::vector<int> resolvePins(const std::vector<std::string>& selectors, int rows
       edge(0, rows - 1, cols - 1, cols - 1);
     } else {
       std::size_t used = 0;
-      long index = -1;
+      long long particle = -1;
       try {
-        index = std::stol(selector, &used);
+        particle = std::stoll(selector, &used);
       } catch (const std::exception&) {
         used = 0;
       }
-      if (used != selector.size() || selector.empty() || index < 0 || index >= static_cast<long>(rows) * cols) {
+      if (used != selector.size() || selector.empty() || particle < 0 || particle >= count) {
         const std::string shown = selector.size() > kMaxQuotedSelectorChars
                                       ? selector.substr(0, kMaxQuotedSelectorChars) + "..."
                                       : selector;
         *error = "pins: '" + shown +
                  "' is neither a corner/edge name (top_left, top_right, bottom_left, bottom_right, top_edge, "
                  "bottom_edge, left_edge, right_edge) nor a particle index in [0, " +
-                 std::to_string(rows * cols - 1) + "]";
+                 std::to_string(count - 1) + "]";
         return {};
       }
-      pins.push_back(static_cast<int>(index));
+      pins.push_back(static_cast<int>(particle));
     }
   }
   std::sort(pins.begin(), pins.end());

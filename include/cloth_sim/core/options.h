@@ -212,7 +212,8 @@ inline constexpr double kPaperParticleArea_m2 = 1.0 / 400.0;
 inline constexpr double kPaperTriangleArea_m2 = 1.0 / (2.0 * 19.0 * 19.0);
 
 /// The options with a material's derived values in force: mass and the three spring kinds from
-/// materialConstants (unchanged without a material). Idempotent.
+/// materialConstants (unchanged without a material, or with rows or cols outside OptionLimits, which
+/// validation refuses). Idempotent.
 SceneOptions resolveMaterial(const SceneOptions& options);
 /// Air damping per particle, N s/m: air_damping as given, or in a material scene scaled by the particles'
 /// mean area over kPaperParticleArea_m2.
@@ -245,8 +246,8 @@ bool sameClothGrid(const SceneOptions& a, const SceneOptions& b);
 /// The first of those that differs, as the scene keys that set it ("rows, cols", "pins", ...); empty if none.
 std::string clothGridDifference(const SceneOptions& a, const SceneOptions& b);
 
-/// Resolves the pin selectors to sorted, unique particle indices; an unknown selector is reported in
-/// *error (and nothing is returned).
+/// Resolves the pin selectors to sorted, unique particle indices; an unknown selector, or rows or cols
+/// outside [OptionLimits::kMinGridSide, kMaxGridSide], is reported in *error (and nothing is returned).
 std::vector<int> resolvePins(const std::vector<std::string>& selectors, int rows, int cols, std::string* error);
 
 }  // namespace cloth_sim::core
