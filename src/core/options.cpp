@@ -205,7 +205,8 @@ void validateOutline(const SceneOptions& o, const std::vector<int>& pinned, Prob
   }
   for (const int pin : pinned) {
     if (pin < static_cast<int>(mask.size()) && mask[pin] == 0) {
-      problems.fail("pins: particle " + std::to_string(pin) + " is outside the outline");
+      problems.fail("pins: particle " + std::to_string(pin) +
+                    " is outside the outline (or in none of the triangles it keeps)");
       break;
     }
   }
@@ -469,16 +470,23 @@ std::vector<std::uint8_t> outlineMask(const SceneOptions& o) {
   const double du_m = o.width_m / (o.cols - 1);
   const double dv_m = o.height_m / (o.rows - 1);
   const double tolerance_m = kOnTheLine * std::min(du_m, dv_m);
-  std::vector<std::uint8_t> mask(static_cast<std::size_t>(o.rows) * o.cols, 0);
+  std::vector<std::uint8_t> inside(static_cast<std::size_t>(o.rows) * o.cols, 0);
   for (int r = 0; r < o.rows; ++r) {
     for (int c = 0; c < o.cols; ++c) {
       const Eigen::Vector2d uv(c * du_m, r * dv_m);
-      const bool inside = o.outline.shape == OutlineOptions::Shape::kCircle
-                              ? (uv - o.outline.center_m).norm() <= o.outline.radius_m + tolerance_m
-                              : insidePolygon(o.outline.vertices_m, uv, tolerance_m);
-      mask[static_cast<std::size_t>(r) * o.cols + c] = inside ? 1 : 0;
+      const bool in = o.outline.shape == OutlineOptions::Shape::kCircle
+                          ? (uv - o.outline.center_m).norm() <= o.outline.radius_m + tolerance_m
+                          : insidePolygon(o.outline.vertices_m, uv, tolerance_m);
+      inside[static_cast<std::size_t>(r) * o.cols + c] = in ? 1 : 0;
     }
   }
+  // A triangle is kept when its three corners are inside; a particle inside that is a corner of none (the
+  // tip of a polygon's sharp corner between two grid lines) would be cloth without area: a material gives
+  // it no mass, and the guard's k / m for it was infinite (the scene rolled back and reset for good). It is
+  // removed as the particles outside are, so the particles, springs and triangles kept are one set.
+  const Eigen::VectorXd area_m2 = keptArea(o.rows, o.cols, du_m, dv_m, inside);
+  std::vector<std::uint8_t> mask(inside.size(), 0);
+  for (std::size_t p = 0; p < mask.size(); ++p) mask[p] = area_m2[static_cast<Eigen::Index>(p)] > 0.0 ? 1 : 0;
   return mask;
 }
 

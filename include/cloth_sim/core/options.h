@@ -222,8 +222,10 @@ double airDampingPerParticle_N_s_per_m(const SceneOptions& options);
 /// triangles' area over kPaperTriangleArea_m2.
 double paperWindCoefficientPerTriangle_N_s_per_m(const SceneOptions& options);
 
-/// Which particles the outline keeps (1) and removes (0), one per particle; empty without an outline. A
-/// particle on the outline counts as inside (to 1e-9 of the spacing).
+/// Which particles the outline keeps (1) and removes (0), one per particle; empty without an outline. It
+/// keeps the corners of the grid's triangles whose three corners are inside it (a particle on the outline
+/// counts as inside, to 1e-9 of the spacing): a particle inside but in none of those triangles is removed
+/// too, since it would have no area (and a material no mass).
 std::vector<std::uint8_t> outlineMask(const SceneOptions& options);
 
 /// The curvature bending term of these options: built when bend_model is curvature and there is a
