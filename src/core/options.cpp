@@ -166,12 +166,15 @@ bool gridSidesInRange(int rows, int cols) {
 /// Most corners an outline polygon may have.
 constexpr std::size_t kMaxOutlineVertices = 4096;
 
-/// The outline's shape, that it keeps at least one triangle, and that no pin is outside it.
-void validateOutline(const SceneOptions& o, const std::vector<int>& pinned, Problems& problems) {
+/// The outline's own problems, each naming its field: its shape, and that it keeps at least one triangle
+/// of the grid (when width and height are valid). *kept: outlineMask when neither has a problem, else
+/// empty (and empty without an outline).
+std::vector<std::string> outlineProblems(const SceneOptions& o, std::vector<std::uint8_t>* kept) {
   using L = OptionLimits;
+  kept->clear();
   const OutlineOptions& outline = o.outline;
-  if (outline.shape == OutlineOptions::Shape::kNone) return;
-  const std::size_t before = problems.size();
+  if (outline.shape == OutlineOptions::Shape::kNone) return {};
+  Problems problems;
   if (outline.shape == OutlineOptions::Shape::kCircle) {
     problems.positive("outline.circle.radius", outline.radius_m, L::kMaxClothSide_m);
     if (!outline.center_m.allFinite() || outline.center_m.cwiseAbs().maxCoeff() > L::kMaxCoordinate_m) {
@@ -188,23 +191,24 @@ void validateOutline(const SceneOptions& o, const std::vector<int>& pinned, Prob
       break;
     }
   }
-  const bool grid_valid = gridSidesInRange(o.rows, o.cols) && std::isfinite(o.width_m) && o.width_m > 0.0 &&
-                          std::isfinite(o.height_m) && o.height_m > 0.0;
-  if (problems.size() != before || !grid_valid) return;
-  const std::vector<std::uint8_t> mask = outlineMask(o);
-  bool any_triangle = false;
-  for (int r = 0; r + 1 < o.rows && !any_triangle; ++r) {
-    for (int c = 0; c + 1 < o.cols && !any_triangle; ++c) {
-      const int p = r * o.cols + c;
-      any_triangle = mask[p] && mask[p + 1] && mask[p + o.cols + 1];
-    }
-  }
-  if (!any_triangle) {
+  const bool sides_valid =
+      std::isfinite(o.width_m) && o.width_m > 0.0 && std::isfinite(o.height_m) && o.height_m > 0.0;
+  if (problems.size() != 0 || !sides_valid) return problems.take();
+  std::vector<std::uint8_t> mask = outlineMask(o);
+  // outlineMask keeps only corners of the triangles it keeps: one particle kept is one triangle kept.
+  if (std::find(mask.begin(), mask.end(), 1) == mask.end()) {
     problems.fail("outline: keeps no triangle of the " + std::to_string(o.rows) + " x " + std::to_string(o.cols) +
                   " grid (it is in the cloth's own (u, v) metres, from particle (0, 0))");
+    return problems.take();
   }
+  *kept = std::move(mask);
+  return {};
+}
+
+/// No pin on a particle the outline removes (`kept`: outlineMask; empty: nothing to check).
+void validatePinsKept(const std::vector<std::uint8_t>& kept, const std::vector<int>& pinned, Problems& problems) {
   for (const int pin : pinned) {
-    if (pin < static_cast<int>(mask.size()) && mask[pin] == 0) {
+    if (pin < static_cast<int>(kept.size()) && kept[static_cast<std::size_t>(pin)] == 0) {
       problems.fail("pins: particle " + std::to_string(pin) +
                     " is outside the outline (or in none of the triangles it keeps)");
       break;
@@ -272,6 +276,10 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
     problems.fail("bend_model = curvature: needs a material (its bending_rigidity): give `material`, or use "
                   "bend_model = springs");
   }
+  // The outline is checked before a material derives its mass from the area the outline keeps: a bad
+  // outline keeps none, and its reason, not a mass of 0, is what to report.
+  std::vector<std::uint8_t> kept;
+  const std::vector<std::string> outline_problems = outlineProblems(o, &kept);
   // With a material, mass and springs are derived for this grid: their limits are checked on what it
   // gives, and named as its.
   bool constants_known = true;
@@ -282,7 +290,7 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
     for (const std::string& problem : material_problems) problems.fail(problem);
     const bool grid_valid = std::isfinite(o.width_m) && o.width_m > 0.0 && std::isfinite(o.height_m) &&
                             o.height_m > 0.0 && o.gravity_m_per_s2.allFinite();
-    constants_known = material_problems.empty() && grid_valid;
+    constants_known = material_problems.empty() && grid_valid && outline_problems.empty();
     if (constants_known) resolved = resolveMaterial(o);
     derived_prefix = "material gives ";
   }
@@ -323,7 +331,8 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   std::string pin_error;
   const std::vector<int> pinned = resolvePins(o.pins, o.rows, o.cols, &pin_error);
   if (!pin_error.empty()) problems.fail(pin_error);
-  validateOutline(o, pinned, problems);
+  for (const std::string& problem : outline_problems) problems.fail(problem);
+  validatePinsKept(kept, pinned, problems);
   problems.finiteVector("pin_motion_amplitude", o.pin_motion_amplitude_m, L::kMaxCoordinate_m);
   if (!o.pin_positions_m.empty() && pin_error.empty() && o.pin_positions_m.size() != pinned.size()) {
     problems.fail("pin_positions: " + std::to_string(o.pin_positions_m.size()) + " positions for " +

@@ -201,6 +201,20 @@ TEST(Outline, AParticleInsideButInNoKeptTriangleIsRemovedLikeOneOutside) {
   EXPECT_EQ(problems.front(), "pins: particle 110 is outside the outline (or in none of the triangles it keeps)");
 }
 
+TEST(Outline, AnInvalidOutlineInAMaterialSceneIsReportedByItsOwnReasonAlone) {
+  // The material's mass used to be derived from the area a bad outline keeps (none), and reported first:
+  // "material gives mass = 0: must be in [1e-06, 10000]".
+  SceneOptions scene = disc(11, true);
+  scene.outline.radius_m = -1.0;
+  EXPECT_EQ(validateSceneOptions(scene), std::vector<std::string>{"outline.circle.radius = -1: must be in (0, 100]"});
+  scene.outline.radius_m = 0.5;
+  scene.outline.center_m = Eigen::Vector2d(5.0, 5.0);
+  scene.pins.clear();
+  const std::vector<std::string> problems = validateSceneOptions(scene);
+  ASSERT_EQ(problems.size(), 1u);
+  EXPECT_EQ(problems.front().rfind("outline: keeps no triangle", 0), 0u) << problems.front();
+}
+
 TEST(Cusick, TheProjectedAreaOfAFlatDiscIsItsAreaAndFoldsAreCounted) {
   // A flat specimen's shadow is the kept triangles' area; DC is then 100 %.
   const SceneOptions scene = cusickScene(preset("denim"), BendModel::kCurvature, 41);
