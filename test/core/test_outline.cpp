@@ -201,6 +201,26 @@ TEST(Outline, AParticleInsideButInNoKeptTriangleIsRemovedLikeOneOutside) {
   EXPECT_EQ(problems.front(), "pins: particle 110 is outside the outline (or in none of the triangles it keeps)");
 }
 
+TEST(Outline, EnergiesCountOnlyTheCloth) {
+  // The particles outside keep a mass so that nothing divides by zero, but they are not cloth: a flat disc
+  // of the paper's 0.5 kg at 1 m weighed 625 shares of 0.5 / 441 kg in its potential energy (6.95 J).
+  SceneOptions scene = disc(25, false);
+  scene.origin_m = Eigen::Vector3d(0.0, 0.0, 1.0);
+  scene.pins.clear();
+  constexpr double kHeight_m = 1.0;
+  const double g_m_per_s2 = -scene.gravity_m_per_s2.z();
+  Simulation paper(scene);
+  EXPECT_NEAR(paper.energies().potential_J, scene.mass_kg * g_m_per_s2 * kHeight_m, 1e-12);
+  EXPECT_EQ(paper.energies().kinetic_J, 0.0);
+  // A material disc weighs its kept area.
+  scene.has_material = true;
+  scene.material = preset("cotton");
+  Simulation cotton(scene);
+  const double kept_m2 = static_cast<double>(cotton.grid().triangles.size() / 3) * 0.5 * (1.0 / 24) * (1.0 / 24);
+  EXPECT_NEAR(cotton.energies().potential_J,
+              scene.material.areal_density_kg_per_m2 * kept_m2 * g_m_per_s2 * kHeight_m, 1e-12);
+}
+
 TEST(Outline, AnInvalidOutlineInAMaterialSceneIsReportedByItsOwnReasonAlone) {
   // The material's mass used to be derived from the area a bad outline keeps (none), and reported first:
   // "material gives mass = 0: must be in [1e-06, 10000]".

@@ -130,6 +130,8 @@ class Simulation {
   const ClothInputs& inputs() const { return inputs_; }
   /// The right-hand side the integrator steps (forces, differential, constraints).
   ClothForceModel& forceModel() { return force_model_; }
+  /// Per particle, kg. A particle outside an outline has the mean mass of those inside (it never moves;
+  /// the solver and the guard divide by it), which energies() does not count.
   const Eigen::VectorXd& massPerParticle_kg() const { return mass_kg_; }
 
   /// Advances one frame (options().frameDuration_s()) in options().substeps substeps, or with `auto` in as
@@ -318,7 +320,8 @@ class Simulation {
 
   SceneOptions options_;
   ClothGrid grid_;
-  Eigen::VectorXd mass_kg_;
+  Eigen::VectorXd mass_kg_;        ///< per particle, kg; outside an outline the mean of those inside
+  Eigen::VectorXd cloth_mass_kg_;  ///< mass_kg_ with 0 outside an outline: what energies and weight sum
   ClothInputs inputs_;
   ClothForceModel force_model_;  ///< reads options_, grid_, mass_kg_ and inputs_ (declared before it)
   StabilityGuard guard_;

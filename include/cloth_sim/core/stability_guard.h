@@ -70,7 +70,7 @@ struct FrameEnvelope {
 struct EnvelopeInputs {
   const SceneOptions& options;
   const ClothGrid& grid;
-  const Eigen::VectorXd& mass_kg;
+  const Eigen::VectorXd& mass_kg;  ///< per particle, kg; 0 outside an outline (not cloth: it has no weight)
   const ClothInputs& inputs;
   const ClothState& state;
   const StiffnessBound& bound;  ///< of the scene as it is now
