@@ -557,8 +557,8 @@ bool Simulation::retune(const SceneOptions& given, std::string* error) {
     *error = changed;
     return false;
   }
-  if (!sameClothGrid(options, options_)) {
-    *error = "rows, cols, size, pose, pins and mass cannot change while running: load a scene instead";
+  if (const std::string difference = clothGridDifference(options, options_); !difference.empty()) {
+    *error = difference + " cannot change while running: load a scene instead";
     return false;
   }
   const std::vector<std::string> problems = validateSceneOptions(options);

@@ -349,6 +349,24 @@ TEST(BadOptions, AGridOutsideItsLimitsIsRefusedAloneAtOnceWithoutResolvingPinsMa
   EXPECT_TRUE(mentions(error, "rows, cols")) << error;
 }
 
+TEST(BadOptions, ARetuneThatWouldChangeTheGridNamesWhatChanged) {
+  // It named "rows, cols, size, pose, pins and mass" whatever changed, and an outline is none of those.
+  SceneOptions options;
+  Simulation simulation(options);
+  SceneOptions tuned = options;
+  tuned.outline.shape = OutlineOptions::Shape::kCircle;
+  tuned.outline.center_m = Eigen::Vector2d(0.5, 0.5);
+  tuned.outline.radius_m = 0.75;  // keeps the top corners, where the pins are
+  ASSERT_EQ(problemsWith(tuned), "");
+  std::string error;
+  EXPECT_FALSE(simulation.retune(tuned, &error));
+  EXPECT_EQ(error, "outline cannot change while running: load a scene instead");
+  tuned = options;
+  tuned.pin_travel_time_s = 1.0;
+  EXPECT_FALSE(simulation.retune(tuned, &error));
+  EXPECT_EQ(error, "pin_positions, pin_travel_time cannot change while running: load a scene instead");
+}
+
 TEST(BadOptions, NonFiniteValuesAreRefusedByName) {
   SceneOptions options;
   options.mass_kg = std::nan("");

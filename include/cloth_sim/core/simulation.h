@@ -150,8 +150,9 @@ class Simulation {
   /// pass restore(): wrong particle count, non-finite or out-of-bound values.
   bool restoreState(const ClothState& state, std::string* error);
 
-  /// Live tuning: accepts new options when they keep the grid (rows, cols, size, pose, pins and mass
-  /// unchanged) and validate. The state carries on. False with *error otherwise, options unchanged.
+  /// Live tuning: accepts new options when they keep the grid (sameClothGrid: rows, cols, size, pose,
+  /// pins and their motion, mass or material, outline) and validate. The state carries on. False with
+  /// *error otherwise (naming what may not change: clothGridDifference), options unchanged.
   bool retune(const SceneOptions& options, std::string* error);
 
   /// Sets the mean wind velocity in force (an input: world frame, m/s) and switches wind on. retune and
