@@ -411,7 +411,11 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   problems.inRange("grasp_stiffness", o.grasp_stiffness_N_per_m, 0.0, L::kMaxStiffnessN_per_m);
   problems.inRange("grasp_damping", o.grasp_damping_N_s_per_m, 0.0, L::kMaxDampingN_s_per_m);
   problems.inRange("sleep_speed", o.sleep_speed_m_per_s, 0.0, L::kMaxSleepSpeed_m_per_s);
-  if (!o.autoSubsteps()) problems.inRange("substeps", o.substeps, 1, L::kMaxSubsteps);
+  if (!o.autoSubsteps() && (o.substeps < 1 || o.substeps > L::kMaxSubsteps)) {
+    problems.fail("substeps = " + std::to_string(o.substeps) + ": must be " +
+                  std::to_string(SceneOptions::kAutoSubsteps) + " (" + kAutoSubstepsName + ") or in [1, " +
+                  std::to_string(L::kMaxSubsteps) + "]");
+  }
   problems.inRange("solver_tolerance", o.solver.tolerance, L::kMinSolverTolerance, 1.0);
   problems.inRange("solver_max_iterations", o.solver.max_iterations, 1, L::kMaxSolverIterations);
   problems.inRange("threads", o.threads, 1, L::kMaxThreads);

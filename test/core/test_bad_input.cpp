@@ -349,6 +349,14 @@ TEST(BadOptions, AGridOutsideItsLimitsIsRefusedAloneAtOnceWithoutResolvingPinsMa
   EXPECT_TRUE(mentions(error, "rows, cols")) << error;
 }
 
+TEST(BadOptions, ANegativeSubstepsCountSaysThatZeroMeansAuto) {
+  SceneOptions options;
+  options.substeps = -1;
+  EXPECT_EQ(validateSceneOptions(options), std::vector<std::string>{"substeps = -1: must be 0 (auto) or in [1, 10000]"});
+  options.substeps = SceneOptions::kAutoSubsteps;
+  EXPECT_EQ(problemsWith(options), "");
+}
+
 TEST(BadOptions, ARetuneThatWouldChangeTheGridNamesWhatChanged) {
   // It named "rows, cols, size, pose, pins and mass" whatever changed, and an outline is none of those.
   SceneOptions options;

@@ -239,7 +239,7 @@ void buildCurvatureBending(const SceneOptions& options, CurvatureBending* curvat
 std::string exactNumberText(double value, int fewest_digits);
 
 /// Every problem with the options, each naming the field, its value and the allowed range, e.g.
-/// "substeps = 0: must be in [1, 10000]". Empty when the options are valid.
+/// "rows = 1: must be in [2, 512]". Empty when the options are valid.
 std::vector<std::string> validateSceneOptions(const SceneOptions& options);
 
 /// Whether two scene options build the same cloth grid (rows, columns, sides, pose, pins and their
