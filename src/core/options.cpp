@@ -178,7 +178,7 @@ std::vector<std::string> outlineProblems(const SceneOptions& o, std::vector<std:
   if (outline.shape == OutlineOptions::Shape::kCircle) {
     problems.positive("outline.circle.radius", outline.radius_m, L::kMaxClothSide_m);
     if (!outline.center_m.allFinite() || outline.center_m.cwiseAbs().maxCoeff() > L::kMaxCoordinate_m) {
-      problems.fail("outline.circle.center: must be finite and within +-1000 m");
+      problems.fail("outline.circle.center: must be finite and within +-" + valueText(L::kMaxCoordinate_m) + " m");
     }
   } else {
     if (outline.vertices_m.size() < 3 || outline.vertices_m.size() > kMaxOutlineVertices) {
@@ -187,7 +187,8 @@ std::vector<std::string> outlineProblems(const SceneOptions& o, std::vector<std:
     }
     for (const Eigen::Vector2d& corner : outline.vertices_m) {
       if (corner.allFinite() && corner.cwiseAbs().maxCoeff() <= L::kMaxCoordinate_m) continue;
-      problems.fail("outline.polygon: every corner must be finite and within +-1000 m");
+      problems.fail("outline.polygon: every corner must be finite and within +-" + valueText(L::kMaxCoordinate_m) +
+                    " m");
       break;
     }
   }
