@@ -30,7 +30,7 @@ struct GraspRequest {
   int particle = -1;
   Eigen::Vector3d target_m = Eigen::Vector3d::Zero();  ///< world frame
   double stiffness_N_per_m = 0.0;
-  Eigen::Vector3d extra_force_N = Eigen::Vector3d::Zero();
+  Eigen::Vector3d extra_force_N = Eigen::Vector3d::Zero();  ///< world frame (the simulation's), N
 };
 
 /// A request to hold particles rigidly in a frame (issue 14's ~attach). Empty particles: every particle
@@ -224,8 +224,6 @@ class Simulation {
   bool restore(const SimulationSnapshot& snapshot, std::string* error);
 
  private:
-  /// Substeps of a frame's first computation: the fixed count, or for `auto` the count the stable step
-  /// needs times the remembered scale. *warning (if given) says when explicit needs more than the cap.
   /// The auto scale this frame starts from: the remembered one, halved on a trial frame of a calm cloth
   /// (GuardMemory::kScaleTrialFrames).
   int frameAutoScale() const;
@@ -255,6 +253,8 @@ class Simulation {
   /// most this many times: the twisted strip's crossings took one or two doublings to prevent, while at
   /// 32 rows one crossing pair stayed through eight (512 substeps a frame, 0.5 s each).
   static constexpr int kMostCrossingRefinements = 2;
+  /// Substeps of a frame's first computation: the fixed count, or for `auto` the count the stable step
+  /// needs times the given scale. *warning (if given) says when explicit needs more than the cap.
   int firstSubsteps(double stable_step_s, int auto_scale, std::string* warning) const;
   /// The substeps the next frame starts from (firstSubsteps at the remembered scale; a trial, a wake or
   /// the guard may still change them), with the stiffness bound brought up to date: what
