@@ -157,19 +157,28 @@ void validateCameras(const std::vector<CameraOptions>& cameras, Problems& proble
   }
 }
 
+/// Whether rows and cols are within OptionLimits: only then may rows x cols be formed and allocated.
+bool gridSidesInRange(int rows, int cols) {
+  using L = OptionLimits;
+  return rows >= L::kMinGridSide && rows <= L::kMaxGridSide && cols >= L::kMinGridSide && cols <= L::kMaxGridSide;
+}
+
 /// Most corners an outline polygon may have.
 constexpr std::size_t kMaxOutlineVertices = 4096;
 
-/// The outline's shape, that it keeps at least one triangle, and that no pin is outside it.
-void validateOutline(const SceneOptions& o, const std::vector<int>& pinned, Problems& problems) {
+/// The outline's own problems, each naming its field: its shape, and that it keeps at least one triangle
+/// of the grid (when width and height are valid). *kept: outlineMask when neither has a problem, else
+/// empty (and empty without an outline).
+std::vector<std::string> outlineProblems(const SceneOptions& o, std::vector<std::uint8_t>* kept) {
   using L = OptionLimits;
+  kept->clear();
   const OutlineOptions& outline = o.outline;
-  if (outline.shape == OutlineOptions::Shape::kNone) return;
-  const std::size_t before = problems.size();
+  if (outline.shape == OutlineOptions::Shape::kNone) return {};
+  Problems problems;
   if (outline.shape == OutlineOptions::Shape::kCircle) {
     problems.positive("outline.circle.radius", outline.radius_m, L::kMaxClothSide_m);
     if (!outline.center_m.allFinite() || outline.center_m.cwiseAbs().maxCoeff() > L::kMaxCoordinate_m) {
-      problems.fail("outline.circle.center: must be finite and within +-1000 m");
+      problems.fail("outline.circle.center: must be finite and within +-" + valueText(L::kMaxCoordinate_m) + " m");
     }
   } else {
     if (outline.vertices_m.size() < 3 || outline.vertices_m.size() > kMaxOutlineVertices) {
@@ -178,29 +187,31 @@ void validateOutline(const SceneOptions& o, const std::vector<int>& pinned, Prob
     }
     for (const Eigen::Vector2d& corner : outline.vertices_m) {
       if (corner.allFinite() && corner.cwiseAbs().maxCoeff() <= L::kMaxCoordinate_m) continue;
-      problems.fail("outline.polygon: every corner must be finite and within +-1000 m");
+      problems.fail("outline.polygon: every corner must be finite and within +-" + valueText(L::kMaxCoordinate_m) +
+                    " m");
       break;
     }
   }
-  const bool grid_valid = o.rows >= L::kMinGridSide && o.rows <= L::kMaxGridSide && o.cols >= L::kMinGridSide &&
-                          o.cols <= L::kMaxGridSide && std::isfinite(o.width_m) && o.width_m > 0.0 &&
-                          std::isfinite(o.height_m) && o.height_m > 0.0;
-  if (problems.size() != before || !grid_valid) return;
-  const std::vector<std::uint8_t> mask = outlineMask(o);
-  bool any_triangle = false;
-  for (int r = 0; r + 1 < o.rows && !any_triangle; ++r) {
-    for (int c = 0; c + 1 < o.cols && !any_triangle; ++c) {
-      const int p = r * o.cols + c;
-      any_triangle = mask[p] && mask[p + 1] && mask[p + o.cols + 1];
-    }
-  }
-  if (!any_triangle) {
+  const bool sides_valid =
+      std::isfinite(o.width_m) && o.width_m > 0.0 && std::isfinite(o.height_m) && o.height_m > 0.0;
+  if (problems.size() != 0 || !sides_valid) return problems.take();
+  std::vector<std::uint8_t> mask = outlineMask(o);
+  // outlineMask keeps only corners of the triangles it keeps: one particle kept is one triangle kept.
+  if (std::find(mask.begin(), mask.end(), 1) == mask.end()) {
     problems.fail("outline: keeps no triangle of the " + std::to_string(o.rows) + " x " + std::to_string(o.cols) +
                   " grid (it is in the cloth's own (u, v) metres, from particle (0, 0))");
+    return problems.take();
   }
+  *kept = std::move(mask);
+  return {};
+}
+
+/// No pin on a particle the outline removes (`kept`: outlineMask; empty: nothing to check).
+void validatePinsKept(const std::vector<std::uint8_t>& kept, const std::vector<int>& pinned, Problems& problems) {
   for (const int pin : pinned) {
-    if (pin < static_cast<int>(mask.size()) && mask[pin] == 0) {
-      problems.fail("pins: particle " + std::to_string(pin) + " is outside the outline");
+    if (pin < static_cast<int>(kept.size()) && kept[static_cast<std::size_t>(pin)] == 0) {
+      problems.fail("pins: particle " + std::to_string(pin) +
+                    " is outside the outline (or in none of the triangles it keeps)");
       break;
     }
   }
@@ -244,6 +255,11 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   for (std::size_t i = 0; i < o.pins.size(); ++i) checkText("pins[" + std::to_string(i) + "]", o.pins[i]);
   problems.inRange("rows", o.rows, L::kMinGridSide, L::kMaxGridSide);
   problems.inRange("cols", o.cols, L::kMinGridSide, L::kMaxGridSide);
+  // Every check from here on may form rows x cols: the pins' indices, the outline's mask, a material's
+  // kept area. Past the limits that product overflows an int (100000 x 100000) or allocates gigabytes
+  // (an edge of 2e9 pins: bad_alloc out of validation, std::terminate at the node's start-up), so a grid
+  // outside them is reported with nothing that depends on it.
+  if (!gridSidesInRange(o.rows, o.cols)) return problems.take();
   problems.positive("width", o.width_m, L::kMaxClothSide_m);
   problems.positive("height", o.height_m, L::kMaxClothSide_m);
   problems.finiteVector("origin", o.origin_m, L::kMaxCoordinate_m);
@@ -261,6 +277,10 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
     problems.fail("bend_model = curvature: needs a material (its bending_rigidity): give `material`, or use "
                   "bend_model = springs");
   }
+  // The outline is checked before a material derives its mass from the area the outline keeps: a bad
+  // outline keeps none, and its reason, not a mass of 0, is what to report.
+  std::vector<std::uint8_t> kept;
+  const std::vector<std::string> outline_problems = outlineProblems(o, &kept);
   // With a material, mass and springs are derived for this grid: their limits are checked on what it
   // gives, and named as its.
   bool constants_known = true;
@@ -269,10 +289,9 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   if (o.has_material) {
     const std::vector<std::string> material_problems = validateMaterial(o.material);
     for (const std::string& problem : material_problems) problems.fail(problem);
-    const bool grid_valid = o.rows >= L::kMinGridSide && o.cols >= L::kMinGridSide && std::isfinite(o.width_m) &&
-                            o.width_m > 0.0 && std::isfinite(o.height_m) && o.height_m > 0.0 &&
-                            o.gravity_m_per_s2.allFinite();
-    constants_known = material_problems.empty() && grid_valid;
+    const bool grid_valid = std::isfinite(o.width_m) && o.width_m > 0.0 && std::isfinite(o.height_m) &&
+                            o.height_m > 0.0 && o.gravity_m_per_s2.allFinite();
+    constants_known = material_problems.empty() && grid_valid && outline_problems.empty();
     if (constants_known) resolved = resolveMaterial(o);
     derived_prefix = "material gives ";
   }
@@ -311,9 +330,10 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   problems.positive("wind_gust_period", o.wind.gust_period_s, L::kMaxPeriod_s);
 
   std::string pin_error;
-  const std::vector<int> pinned = resolvePins(o.pins, std::max(o.rows, 2), std::max(o.cols, 2), &pin_error);
+  const std::vector<int> pinned = resolvePins(o.pins, o.rows, o.cols, &pin_error);
   if (!pin_error.empty()) problems.fail(pin_error);
-  validateOutline(o, pinned, problems);
+  for (const std::string& problem : outline_problems) problems.fail(problem);
+  validatePinsKept(kept, pinned, problems);
   problems.finiteVector("pin_motion_amplitude", o.pin_motion_amplitude_m, L::kMaxCoordinate_m);
   if (!o.pin_positions_m.empty() && pin_error.empty() && o.pin_positions_m.size() != pinned.size()) {
     problems.fail("pin_positions: " + std::to_string(o.pin_positions_m.size()) + " positions for " +
@@ -328,9 +348,8 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
     problems.speedAtMost("pin_motion_amplitude and pin_motion_period (|A| 2 pi / T)",
                          swingPeakSpeed_m_per_s(o.pin_motion_amplitude_m, o.pin_motion_period_s), L::kMaxPinSpeed_m_per_s);
   }
-  const bool grid_valid = o.rows >= L::kMinGridSide && o.cols >= L::kMinGridSide && std::isfinite(o.width_m) &&
-                          std::isfinite(o.height_m) && o.origin_m.allFinite() && o.u_axis.allFinite() &&
-                          o.v_axis.allFinite();
+  const bool grid_valid = std::isfinite(o.width_m) && std::isfinite(o.height_m) && o.origin_m.allFinite() &&
+                          o.u_axis.allFinite() && o.v_axis.allFinite();
   if (grid_valid && pin_error.empty() && std::isfinite(o.pin_travel_time_s) && o.pin_travel_time_s > 0.0) {
     std::ostringstream fields;
     fields << "pin_positions and pin_travel_time (" << kSmoothstepPeakRate << " x longest trip / time)";
@@ -393,7 +412,11 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   problems.inRange("grasp_stiffness", o.grasp_stiffness_N_per_m, 0.0, L::kMaxStiffnessN_per_m);
   problems.inRange("grasp_damping", o.grasp_damping_N_s_per_m, 0.0, L::kMaxDampingN_s_per_m);
   problems.inRange("sleep_speed", o.sleep_speed_m_per_s, 0.0, L::kMaxSleepSpeed_m_per_s);
-  if (!o.autoSubsteps()) problems.inRange("substeps", o.substeps, 1, L::kMaxSubsteps);
+  if (!o.autoSubsteps() && (o.substeps < 1 || o.substeps > L::kMaxSubsteps)) {
+    problems.fail("substeps = " + std::to_string(o.substeps) + ": must be " +
+                  std::to_string(SceneOptions::kAutoSubsteps) + " (" + kAutoSubstepsName + ") or in [1, " +
+                  std::to_string(L::kMaxSubsteps) + "]");
+  }
   problems.inRange("solver_tolerance", o.solver.tolerance, L::kMinSolverTolerance, 1.0);
   problems.inRange("solver_max_iterations", o.solver.max_iterations, 1, L::kMaxSolverIterations);
   problems.inRange("threads", o.threads, 1, L::kMaxThreads);
@@ -403,7 +426,9 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
 }
 
 SceneOptions resolveMaterial(const SceneOptions& options) {
-  if (!options.has_material) return options;
+  // retune and restore resolve before they compare the grid: a grid outside the limits would have its
+  // outline's mask allocated (rows x cols bytes) before it was refused.
+  if (!options.has_material || !gridSidesInRange(options.rows, options.cols)) return options;
   SceneOptions resolved = options;
   const MaterialConstants constants =
       materialConstants(options.material, options.bend_model, options.rows, options.cols, options.width_m,
@@ -459,16 +484,23 @@ std::vector<std::uint8_t> outlineMask(const SceneOptions& o) {
   const double du_m = o.width_m / (o.cols - 1);
   const double dv_m = o.height_m / (o.rows - 1);
   const double tolerance_m = kOnTheLine * std::min(du_m, dv_m);
-  std::vector<std::uint8_t> mask(static_cast<std::size_t>(o.rows) * o.cols, 0);
+  std::vector<std::uint8_t> inside(static_cast<std::size_t>(o.rows) * o.cols, 0);
   for (int r = 0; r < o.rows; ++r) {
     for (int c = 0; c < o.cols; ++c) {
       const Eigen::Vector2d uv(c * du_m, r * dv_m);
-      const bool inside = o.outline.shape == OutlineOptions::Shape::kCircle
-                              ? (uv - o.outline.center_m).norm() <= o.outline.radius_m + tolerance_m
-                              : insidePolygon(o.outline.vertices_m, uv, tolerance_m);
-      mask[static_cast<std::size_t>(r) * o.cols + c] = inside ? 1 : 0;
+      const bool in = o.outline.shape == OutlineOptions::Shape::kCircle
+                          ? (uv - o.outline.center_m).norm() <= o.outline.radius_m + tolerance_m
+                          : insidePolygon(o.outline.vertices_m, uv, tolerance_m);
+      inside[static_cast<std::size_t>(r) * o.cols + c] = in ? 1 : 0;
     }
   }
+  // A triangle is kept when its three corners are inside; a particle inside that is a corner of none (the
+  // tip of a polygon's sharp corner between two grid lines) would be cloth without area: a material gives
+  // it no mass, and the guard's k / m for it was infinite (the scene rolled back and reset for good). It is
+  // removed as the particles outside are, so the particles, springs and triangles kept are one set.
+  const Eigen::VectorXd area_m2 = keptArea(o.rows, o.cols, du_m, dv_m, inside);
+  std::vector<std::uint8_t> mask(inside.size(), 0);
+  for (std::size_t p = 0; p < mask.size(); ++p) mask[p] = area_m2[static_cast<Eigen::Index>(p)] > 0.0 ? 1 : 0;
   return mask;
 }
 
@@ -485,10 +517,20 @@ double paperWindCoefficientPerTriangle_N_s_per_m(const SceneOptions& o) {
 }
 
 std::vector<int> resolvePins(const std::vector<std::string>& selectors, int rows, int cols, std::string* error) {
+  // Indices are formed in 64 bits and the sides checked first: an int holds every index of a grid within
+  // the limits (512 x 512), and an edge of a larger one would allocate its length in indices.
+  if (!gridSidesInRange(rows, cols)) {
+    *error = "pins: cannot be resolved on a " + std::to_string(rows) + " x " + std::to_string(cols) +
+             " grid (rows and cols must be in [" + std::to_string(OptionLimits::kMinGridSide) + ", " +
+             std::to_string(OptionLimits::kMaxGridSide) + "])";
+    return {};
+  }
+  const std::int64_t count = static_cast<std::int64_t>(rows) * cols;
+  const auto index = [cols](std::int64_t row, std::int64_t col) { return static_cast<int>(row * cols + col); };
   std::vector<int> pins;
   const auto edge = [&](int first_row, int last_row, int first_col, int last_col) {
     for (int r = first_row; r <= last_row; ++r)
-      for (int c = first_col; c <= last_col; ++c) pins.push_back(r * cols + c);
+      for (int c = first_col; c <= last_col; ++c) pins.push_back(index(r, c));
   };
   for (const std::string& selector : selectors) {
     if (selector == "top_left") {
@@ -496,9 +538,9 @@ std::vector<int> resolvePins(const std::vector<std::string>& selectors, int rows
     } else if (selector == "top_right") {
       pins.push_back(cols - 1);
     } else if (selector == "bottom_left") {
-      pins.push_back((rows - 1) * cols);
+      pins.push_back(index(rows - 1, 0));
     } else if (selector == "bottom_right") {
-      pins.push_back(rows * cols - 1);
+      pins.push_back(index(rows - 1, cols - 1));
     } else if (selector == "top_edge") {
       edge(0, 0, 0, cols - 1);
     } else if (selector == "bottom_edge") {
@@ -509,23 +551,23 @@ std::vector<int> resolvePins(const std::vector<std::string>& selectors, int rows
       edge(0, rows - 1, cols - 1, cols - 1);
     } else {
       std::size_t used = 0;
-      long index = -1;
+      long long particle = -1;
       try {
-        index = std::stol(selector, &used);
+        particle = std::stoll(selector, &used);
       } catch (const std::exception&) {
         used = 0;
       }
-      if (used != selector.size() || selector.empty() || index < 0 || index >= static_cast<long>(rows) * cols) {
+      if (used != selector.size() || selector.empty() || particle < 0 || particle >= count) {
         const std::string shown = selector.size() > kMaxQuotedSelectorChars
                                       ? selector.substr(0, kMaxQuotedSelectorChars) + "..."
                                       : selector;
         *error = "pins: '" + shown +
                  "' is neither a corner/edge name (top_left, top_right, bottom_left, bottom_right, top_edge, "
                  "bottom_edge, left_edge, right_edge) nor a particle index in [0, " +
-                 std::to_string(rows * cols - 1) + "]";
+                 std::to_string(count - 1) + "]";
         return {};
       }
-      pins.push_back(static_cast<int>(index));
+      pins.push_back(static_cast<int>(particle));
     }
   }
   std::sort(pins.begin(), pins.end());

@@ -33,8 +33,11 @@ std::string materialConstantChanged(const SceneOptions& given, const SceneOption
 }
 
 /// Particle masses: equal shares (the paper), or by area for a material (material.h); inside an outline
-/// only, each particle outside it keeping the mean mass of those inside (it never moves, and no bound or
-/// ratio then divides by zero).
+/// only, each particle outside it keeping the mean mass of those inside. It never moves (its inverse mass
+/// is 0), but it is a row of the implicit system M + h c - h^2 K (its diagonal block is its mass, which
+/// the block-Jacobi preconditioner inverts) and of the guard's bound (k / m and c / m per particle, and
+/// the smallest mass): with 0 there those divide by zero. It is not cloth: what sums the cloth's mass
+/// (energies, the guard's energy scale) uses clothMasses.
 Eigen::VectorXd particleMasses(const SceneOptions& options, const ClothGrid& grid) {
   const int count = grid.particleCount();
   if (!grid.hasOutline()) {
@@ -57,6 +60,16 @@ Eigen::VectorXd particleMasses(const SceneOptions& options, const ClothGrid& gri
   return mass;
 }
 
+/// The masses the cloth has: `mass_kg` with 0 on the particles outside an outline (the same vector without
+/// one), so that its energies and weight count only the particles that are cloth.
+Eigen::VectorXd clothMasses(const Eigen::VectorXd& mass_kg, const ClothGrid& grid) {
+  Eigen::VectorXd cloth_kg = mass_kg;
+  for (int p = 0; p < grid.particleCount(); ++p) {
+    if (!grid.isActive(p)) cloth_kg[p] = 0.0;
+  }
+  return cloth_kg;
+}
+
 /// The options if they are valid; throws std::invalid_argument with the first problem otherwise.
 const SceneOptions& validated(const SceneOptions& options) {
   const std::vector<std::string> problems = validateSceneOptions(options);
@@ -71,6 +84,7 @@ Simulation::Simulation(const SceneOptions& options)
       grid_(buildClothGrid(options.rows, options.cols, options.width_m, options.height_m, options.origin_m,
                            options.u_axis, options.v_axis, outlineMask(options))),
       mass_kg_(particleMasses(options_, grid_)),
+      cloth_mass_kg_(clothMasses(mass_kg_, grid_)),
       force_model_(grid_, options_, mass_kg_, inputs_) {
   colors_ = checkerColors(grid_.uv);
   integrator_ = makeIntegrator(options.integrator, options.solver);
@@ -250,7 +264,7 @@ FrameEnvelope Simulation::frameEnvelope() const {
   // something outside advanceFrame changed the state or the options since (one pass over the springs
   // saved each way).
   const EnergyReport energies_now = energy_cache_valid_ ? cached_energies_ : energies();
-  EnvelopeInputs scene{options_, grid_, mass_kg_, inputs_, state_, bound_, force_model_.kinematics(),
+  EnvelopeInputs scene{options_, grid_, cloth_mass_kg_, inputs_, state_, bound_, force_model_.kinematics(),
                        force_model_.inverseMass_per_kg()};
   scene.energy_before_J = totalEnergy_J(energies_now);
   scene.kinetic_J = energies_now.kinetic_J;
@@ -543,8 +557,8 @@ bool Simulation::retune(const SceneOptions& given, std::string* error) {
     *error = changed;
     return false;
   }
-  if (!sameClothGrid(options, options_)) {
-    *error = "rows, cols, size, pose, pins and mass cannot change while running: load a scene instead";
+  if (const std::string difference = clothGridDifference(options, options_); !difference.empty()) {
+    *error = difference + " cannot change while running: load a scene instead";
     return false;
   }
   const std::vector<std::string> problems = validateSceneOptions(options);
@@ -581,8 +595,10 @@ bool Simulation::setVertexColors(const Eigen::Matrix3Xf& colors) {
 
 EnergyReport Simulation::energies() const {
   EnergyReport report;
-  report.kinetic_J = 0.5 * (state_.velocities_m_per_s.colwise().squaredNorm().transpose().cwiseProduct(mass_kg_)).sum();
-  report.potential_J = -(options_.gravity_m_per_s2.transpose() * state_.positions_m * mass_kg_)(0);
+  // Of the cloth only: a particle outside an outline has a mass for the solver's sake, not weight.
+  report.kinetic_J =
+      0.5 * (state_.velocities_m_per_s.colwise().squaredNorm().transpose().cwiseProduct(cloth_mass_kg_)).sum();
+  report.potential_J = -(options_.gravity_m_per_s2.transpose() * state_.positions_m * cloth_mass_kg_)(0);
   for (int k = 0; k < kSpringKindCount; ++k) {
     if (!options_.springs[k].enabled) continue;
     report.elastic_J += springPotentialEnergy(grid_.springs[k], options_.springs[k], state_.positions_m);

@@ -201,7 +201,8 @@ FrameEnvelope frameEnvelope(const EnvelopeInputs& scene) {
   envelope.strain_before = scene.strain_before;
   const double total_mass_kg = mass_kg.sum();
   const double gravity_m_per_s2 = options.gravity_m_per_s2.norm();
-  // The fastest thing that can push the cloth: wind (with gusts), or a body (pins' hooks, spheres).
+  // The fastest thing that can push the cloth: wind (with gusts), or a body (pins' hooks, spheres,
+  // grippers, frame colliders).
   const double gust = 1.0 + std::abs(options.wind.gust_amplitude);
   const double wind_speed_m_per_s = options.wind_enabled ? scene.inputs.wind_m_per_s.norm() * gust : 0.0;
   double kinematic_speed_m_per_s = 0.0;

@@ -9,6 +9,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -288,6 +289,90 @@ TEST(BadOptions, AWindOver100MetresPerSecondInMagnitudeIsRefused) {
   EXPECT_TRUE(mentions(problemsWith(options), "magnitude")) << problemsWith(options);
   options.wind.velocity_m_per_s = Eigen::Vector3d(0.0, 100.0, 0.0);
   EXPECT_EQ(problemsWith(options), "");
+}
+
+TEST(BadOptions, AGridOutsideItsLimitsIsRefusedAloneAtOnceWithoutResolvingPinsMaterialOrOutline) {
+  // Validation resolved the pins before it knew the sides were in range: 100000 x 100000 with
+  // bottom_right formed rows x cols in an int (signed overflow), 2 x 2e9 with top_edge allocated 2e9
+  // indices (bad_alloc out of validation: std::terminate at the node's start-up, an exception out of
+  // ~load_state), and a material with an outline allocated a rows x cols mask for its area.
+  struct Grid {
+    int rows;
+    int cols;
+    std::vector<std::string> pins;
+  };
+  SceneOptions options;
+  options.has_material = true;
+  ASSERT_TRUE(findMaterialPreset("cotton", &options.material));
+  options.outline.shape = OutlineOptions::Shape::kCircle;
+  options.outline.center_m = Eigen::Vector2d(0.5, 0.5);
+  options.outline.radius_m = 0.5;
+  // Well under the time one pass over a 1e10-particle grid (or one allocation of it) takes.
+  constexpr double kQuickly_s = 1.0;
+  for (const Grid& grid : {Grid{100000, 100000, {"bottom_right"}}, Grid{2, 2000000000, {"top_edge"}},
+                           Grid{2000000000, 2, {"left_edge", "nonsense"}}, Grid{1, 5, {"nonsense"}}}) {
+    options.rows = grid.rows;
+    options.cols = grid.cols;
+    options.pins = grid.pins;
+    const auto start = std::chrono::steady_clock::now();
+    std::vector<std::string> problems;
+    ASSERT_NO_THROW(problems = validateSceneOptions(options)) << grid.rows << " x " << grid.cols;
+    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), kQuickly_s);
+    // Only the sides: nothing that depends on the grid (pins, outline, the material's mass) is looked at.
+    std::vector<std::string> expected;
+    if (grid.rows > OptionLimits::kMaxGridSide || grid.rows < OptionLimits::kMinGridSide) {
+      expected.push_back("rows = " + std::to_string(grid.rows) + ": must be in [2, 512]");
+    }
+    if (grid.cols > OptionLimits::kMaxGridSide || grid.cols < OptionLimits::kMinGridSide) {
+      expected.push_back("cols = " + std::to_string(grid.cols) + ": must be in [2, 512]");
+    }
+    EXPECT_EQ(problems, expected) << grid.rows << " x " << grid.cols;
+  }
+  // What resolves pins on its own refuses such a grid too, and forms its indices in 64 bits.
+  std::string error;
+  EXPECT_TRUE(resolvePins({"bottom_right"}, 100000, 100000, &error).empty());
+  EXPECT_TRUE(mentions(error, "100000 x 100000 grid")) << error;
+  error.clear();
+  EXPECT_EQ(resolvePins({"bottom_right"}, 512, 512, &error), std::vector<int>{512 * 512 - 1});
+  EXPECT_EQ(error, "");
+  // A retune or a restore derives a material's constants before it compares grids: nothing is derived
+  // (nor allocated) for a grid outside the limits, and it is refused by its sides.
+  options.rows = options.cols = 100000;
+  EXPECT_EQ(resolveMaterial(options).mass_kg, options.mass_kg);
+  SceneOptions disc = options;
+  disc.rows = disc.cols = 11;
+  disc.pins = {"60"};  // the centre
+  ASSERT_EQ(problemsWith(disc), "");
+  Simulation simulation(disc);
+  options.pins = disc.pins;
+  ASSERT_FALSE(simulation.retune(options, &error));
+  EXPECT_TRUE(mentions(error, "rows, cols")) << error;
+}
+
+TEST(BadOptions, ANegativeSubstepsCountSaysThatZeroMeansAuto) {
+  SceneOptions options;
+  options.substeps = -1;
+  EXPECT_EQ(validateSceneOptions(options), std::vector<std::string>{"substeps = -1: must be 0 (auto) or in [1, 10000]"});
+  options.substeps = SceneOptions::kAutoSubsteps;
+  EXPECT_EQ(problemsWith(options), "");
+}
+
+TEST(BadOptions, ARetuneThatWouldChangeTheGridNamesWhatChanged) {
+  // It named "rows, cols, size, pose, pins and mass" whatever changed, and an outline is none of those.
+  SceneOptions options;
+  Simulation simulation(options);
+  SceneOptions tuned = options;
+  tuned.outline.shape = OutlineOptions::Shape::kCircle;
+  tuned.outline.center_m = Eigen::Vector2d(0.5, 0.5);
+  tuned.outline.radius_m = 0.75;  // keeps the top corners, where the pins are
+  ASSERT_EQ(problemsWith(tuned), "");
+  std::string error;
+  EXPECT_FALSE(simulation.retune(tuned, &error));
+  EXPECT_EQ(error, "outline cannot change while running: load a scene instead");
+  tuned = options;
+  tuned.pin_travel_time_s = 1.0;
+  EXPECT_FALSE(simulation.retune(tuned, &error));
+  EXPECT_EQ(error, "pin_positions, pin_travel_time cannot change while running: load a scene instead");
 }
 
 TEST(BadOptions, NonFiniteValuesAreRefusedByName) {

@@ -34,11 +34,13 @@ class ClothForceModel final : public Dynamics {
                   const ClothInputs& inputs);
 
   /// Rebuilds the bodies from the options and inputs (Kinematics::setScene) and which particles are
-  /// constrained: a pin is on its hook unless a grasp holds it.
+  /// constrained: a pin is on its hook unless a grasp holds it, and a gripper holds its particles.
   void refreshConstraints();
-  /// Puts every hooked pin where its hook's motion places it at time_s, with the motion's velocity.
+  /// Puts every held particle (hooked pins, gripped particles) where its body holds it at time_s, with the
+  /// velocity of that point of the body.
   void enforceConstraints(double time_s, ClothState& state) const { kinematics_.enforce(time_s, state); }
-  /// The bodies that move the cloth by prescription (pins' hooks, spheres), as of refreshConstraints.
+  /// The bodies that move the cloth by prescription (pins' hooks, spheres, grippers, frame colliders), as
+  /// of refreshConstraints.
   const Kinematics& kinematics() const { return kinematics_; }
 
   void forces(const Eigen::Matrix3Xd& positions_m, const Eigen::Matrix3Xd& velocities_m_per_s, double time_s,
@@ -101,7 +103,8 @@ class ClothForceModel final : public Dynamics {
   const ClothInputs& inputs_;
   Kinematics kinematics_;                ///< from options_ and inputs_, by refreshConstraints
   CurvatureBending curvature_;           ///< from options_, by refreshConstraints
-  Eigen::VectorXd inverse_mass_per_kg_;  ///< 0 on the particles kinematics_ holds (hooked pins)
+  /// 0 on the particles kinematics_ holds (hooked pins, gripped particles) and outside an outline.
+  Eigen::VectorXd inverse_mass_per_kg_;
   std::array<double, kStencilFamilies.size()> rest_length_m_{};  ///< per family, from the rest grid
   /// Per family, with an outline: 1 at the first particle of each spring whose ends are both inside.
   std::array<std::vector<std::uint8_t>, kStencilFamilies.size()> present_;

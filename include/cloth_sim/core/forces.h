@@ -76,14 +76,16 @@ struct Grasp {
   Eigen::Vector3d target_m = Eigen::Vector3d::Zero();  ///< where the hand is, world frame
   double stiffness_N_per_m = 0.0;
   double damping_N_s_per_m = 0.0;       ///< on the particle's absolute velocity (the hand is slow)
-  Eigen::Vector3d extra_force_N = Eigen::Vector3d::Zero();
+  Eigen::Vector3d extra_force_N = Eigen::Vector3d::Zero();  ///< world frame (the simulation's), N
 };
 
 /// Grasps: F = k (target - x) - c v + extra on each held particle.
 void accumulateGraspForces(const std::vector<Grasp>& grasps, const Eigen::Matrix3Xd& positions_m,
                            const Eigen::Matrix3Xd& velocities_m_per_s, Eigen::Matrix3Xd& forces_N);
 
-/// Elastic energy of one spring kind, J: sum of Ks (|d| - L)^2 / 2.
+/// Elastic energy of one spring kind, J: sum of Ks (|d| - L)^2 / 2, except past the compression cap c
+/// (springCompressionCap_N; Ks (L - |d|) > c), where the force is constant and the energy grows linearly
+/// in the compression: c^2 / (2 Ks) + c (L - |d| - c / Ks).
 double springPotentialEnergy(const SpringSet& springs, const SpringOptions& options,
                              const Eigen::Matrix3Xd& positions_m);
 

@@ -38,8 +38,8 @@ struct ClothGrid {
   std::vector<int> triangles;
   Eigen::Matrix2Xd uv;                ///< texture coordinate per particle, in [0, 1]^2
   Eigen::Matrix3Xd rest_positions_m;  ///< initial position per particle, world frame, m
-  /// 1 per particle inside the scene's outline, 0 outside (issue 17); empty: every particle is in. A
-  /// particle outside keeps its place in the arrays (the stencil kernels and multigrid work on the whole
+  /// 1 per particle the scene's outline keeps (outlineMask: inside it and a corner of a triangle inside
+  /// it), 0 for the rest (issue 17); empty: every particle is in. A removed particle keeps its place in the arrays (the stencil kernels and multigrid work on the whole
   /// rectangle) but has no springs, no triangles and no mass that moves: it stays where it started.
   std::vector<std::uint8_t> active;
 

@@ -212,7 +212,8 @@ inline constexpr double kPaperParticleArea_m2 = 1.0 / 400.0;
 inline constexpr double kPaperTriangleArea_m2 = 1.0 / (2.0 * 19.0 * 19.0);
 
 /// The options with a material's derived values in force: mass and the three spring kinds from
-/// materialConstants (unchanged without a material). Idempotent.
+/// materialConstants (unchanged without a material, or with rows or cols outside OptionLimits, which
+/// validation refuses). Idempotent.
 SceneOptions resolveMaterial(const SceneOptions& options);
 /// Air damping per particle, N s/m: air_damping as given, or in a material scene scaled by the particles'
 /// mean area over kPaperParticleArea_m2.
@@ -221,8 +222,10 @@ double airDampingPerParticle_N_s_per_m(const SceneOptions& options);
 /// triangles' area over kPaperTriangleArea_m2.
 double paperWindCoefficientPerTriangle_N_s_per_m(const SceneOptions& options);
 
-/// Which particles the outline keeps (1) and removes (0), one per particle; empty without an outline. A
-/// particle on the outline counts as inside (to 1e-9 of the spacing).
+/// Which particles the outline keeps (1) and removes (0), one per particle; empty without an outline. It
+/// keeps the corners of the grid's triangles whose three corners are inside it (a particle on the outline
+/// counts as inside, to 1e-9 of the spacing): a particle inside but in none of those triangles is removed
+/// too, since it would have no area (and a material no mass).
 std::vector<std::uint8_t> outlineMask(const SceneOptions& options);
 
 /// The curvature bending term of these options: built when bend_model is curvature and there is a
@@ -236,7 +239,7 @@ void buildCurvatureBending(const SceneOptions& options, CurvatureBending* curvat
 std::string exactNumberText(double value, int fewest_digits);
 
 /// Every problem with the options, each naming the field, its value and the allowed range, e.g.
-/// "substeps = 0: must be in [1, 10000]". Empty when the options are valid.
+/// "rows = 1: must be in [2, 512]". Empty when the options are valid.
 std::vector<std::string> validateSceneOptions(const SceneOptions& options);
 
 /// Whether two scene options build the same cloth grid (rows, columns, sides, pose, pins and their
@@ -245,8 +248,8 @@ bool sameClothGrid(const SceneOptions& a, const SceneOptions& b);
 /// The first of those that differs, as the scene keys that set it ("rows, cols", "pins", ...); empty if none.
 std::string clothGridDifference(const SceneOptions& a, const SceneOptions& b);
 
-/// Resolves the pin selectors to sorted, unique particle indices; an unknown selector is reported in
-/// *error (and nothing is returned).
+/// Resolves the pin selectors to sorted, unique particle indices; an unknown selector, or rows or cols
+/// outside [OptionLimits::kMinGridSide, kMaxGridSide], is reported in *error (and nothing is returned).
 std::vector<int> resolvePins(const std::vector<std::string>& selectors, int rows, int cols, std::string* error);
 
 }  // namespace cloth_sim::core

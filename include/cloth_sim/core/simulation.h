@@ -30,7 +30,7 @@ struct GraspRequest {
   int particle = -1;
   Eigen::Vector3d target_m = Eigen::Vector3d::Zero();  ///< world frame
   double stiffness_N_per_m = 0.0;
-  Eigen::Vector3d extra_force_N = Eigen::Vector3d::Zero();
+  Eigen::Vector3d extra_force_N = Eigen::Vector3d::Zero();  ///< world frame (the simulation's), N
 };
 
 /// A request to hold particles rigidly in a frame (issue 14's ~attach). Empty particles: every particle
@@ -135,6 +135,8 @@ class Simulation {
   const ClothInputs& inputs() const { return inputs_; }
   /// The right-hand side the integrator steps (forces, differential, constraints).
   ClothForceModel& forceModel() { return force_model_; }
+  /// Per particle, kg. A particle outside an outline has the mean mass of those inside (it never moves;
+  /// the solver and the guard divide by it), which energies() does not count.
   const Eigen::VectorXd& massPerParticle_kg() const { return mass_kg_; }
 
   /// Advances one frame (options().frameDuration_s()) in options().substeps substeps, or with `auto` in as
@@ -153,8 +155,9 @@ class Simulation {
   /// pass restore(): wrong particle count, non-finite or out-of-bound values.
   bool restoreState(const ClothState& state, std::string* error);
 
-  /// Live tuning: accepts new options when they keep the grid (rows, cols, size, pose, pins and mass
-  /// unchanged) and validate. The state carries on. False with *error otherwise, options unchanged.
+  /// Live tuning: accepts new options when they keep the grid (sameClothGrid: rows, cols, size, pose,
+  /// pins and their motion, mass or material, outline) and validate. The state carries on. False with
+  /// *error otherwise (naming what may not change: clothGridDifference), options unchanged.
   bool retune(const SceneOptions& options, std::string* error);
 
   /// Sets the mean wind velocity in force (an input: world frame, m/s) and switches wind on. retune and
@@ -226,8 +229,6 @@ class Simulation {
   bool restore(const SimulationSnapshot& snapshot, std::string* error);
 
  private:
-  /// Substeps of a frame's first computation: the fixed count, or for `auto` the count the stable step
-  /// needs times the remembered scale. *warning (if given) says when explicit needs more than the cap.
   /// The auto scale this frame starts from: the remembered one, halved on a trial frame of a calm cloth
   /// (GuardMemory::kScaleTrialFrames).
   int frameAutoScale() const;
@@ -257,6 +258,8 @@ class Simulation {
   /// most this many times: the twisted strip's crossings took one or two doublings to prevent, while at
   /// 32 rows one crossing pair stayed through eight (512 substeps a frame, 0.5 s each).
   static constexpr int kMostCrossingRefinements = 2;
+  /// Substeps of a frame's first computation: the fixed count, or for `auto` the count the stable step
+  /// needs times the given scale. *warning (if given) says when explicit needs more than the cap.
   int firstSubsteps(double stable_step_s, int auto_scale, std::string* warning) const;
   /// The substeps the next frame starts from (firstSubsteps at the remembered scale; a trial, a wake or
   /// the guard may still change them), with the stiffness bound brought up to date: what
@@ -323,7 +326,8 @@ class Simulation {
 
   SceneOptions options_;
   ClothGrid grid_;
-  Eigen::VectorXd mass_kg_;
+  Eigen::VectorXd mass_kg_;        ///< per particle, kg; outside an outline the mean of those inside
+  Eigen::VectorXd cloth_mass_kg_;  ///< mass_kg_ with 0 outside an outline: what energies and weight sum
   ClothInputs inputs_;
   ClothForceModel force_model_;  ///< reads options_, grid_, mass_kg_ and inputs_ (declared before it)
   StabilityGuard guard_;

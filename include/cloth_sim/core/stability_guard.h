@@ -70,11 +70,12 @@ struct FrameEnvelope {
 struct EnvelopeInputs {
   const SceneOptions& options;
   const ClothGrid& grid;
-  const Eigen::VectorXd& mass_kg;
+  const Eigen::VectorXd& mass_kg;  ///< per particle, kg; 0 outside an outline (not cloth: it has no weight)
   const ClothInputs& inputs;
   const ClothState& state;
   const StiffnessBound& bound;  ///< of the scene as it is now
-  /// The bodies that move the cloth by prescription (pins' hooks, spheres): their peak speeds over the frame.
+  /// The bodies that move the cloth by prescription (pins' hooks, spheres, grippers, frame colliders):
+  /// their peak speeds over the frame.
   const Kinematics& kinematics;
   /// Zero for particles the cloth's bodies hold (pins, gripped): contacts leave them alone.
   const Eigen::VectorXd& inverse_mass_per_kg;
