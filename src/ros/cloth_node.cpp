@@ -5,6 +5,7 @@
 #include "cloth_sim/io/state_file.h"
 #include "cloth_sim/io/texture.h"
 #include "cloth_sim/ros/conversions.h"
+#include "cloth_sim/ros/ros_time.h"
 #include "cloth_sim/ros/shutdown.h"
 
 #include <boost/make_shared.hpp>
@@ -320,7 +321,7 @@ void ClothNode::onTimer(const ros::TimerEvent&) {
   if (!anchored_) reanchor();
   if (anchored_ && !paused_) {
     const double elapsed_frames =
-        std::max(0.0, (now - anchor_time_).toSec() * simulation_->options().frame_rate_hz);
+        std::max(0.0, secondsBetween(anchor_time_, now) * simulation_->options().frame_rate_hz);
     const auto due = anchor_frame_ + static_cast<std::uint64_t>(std::floor(elapsed_frames + kFrameDueTolerance));
     std::int64_t behind = static_cast<std::int64_t>(due) - static_cast<std::int64_t>(simulation_->state().frame);
     // In wall time a slow machine must not snowball; under /clock every frame is owed (determinism),
