@@ -539,17 +539,23 @@ void ClothNode::applyGrasp(const cloth_sim::Grasp::ConstPtr& message) {
     ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp id %u: target is not finite", message->id);
     return;
   }
+  // The force in header.frame_id too: a free vector, rotated only (as ~wind's).
+  geometry_msgs::Vector3Stamped force;
+  force.header = message->header;
+  force.vector = message->force;
   geometry_msgs::PointStamped in_frame;
+  geometry_msgs::Vector3Stamped force_in_frame;
   std::string why;
-  if (!frame_inputs_.express(target, frame_id_, &in_frame, &why)) {
+  if (!frame_inputs_.express(target, frame_id_, &in_frame, &why) ||
+      !frame_inputs_.express(force, frame_id_, &force_in_frame, &why)) {
     ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp id %u in frame '%s': %s", message->id,
                       message->header.frame_id.c_str(), why.c_str());
     return;
   }
-  target = in_frame;
   std::string error;
   const core::GraspRequest request =
-      toGraspRequest(*message, Eigen::Vector3d(target.point.x, target.point.y, target.point.z));
+      toGraspRequest(*message, Eigen::Vector3d(in_frame.point.x, in_frame.point.y, in_frame.point.z),
+                     Eigen::Vector3d(force_in_frame.vector.x, force_in_frame.vector.y, force_in_frame.vector.z));
   if (!simulation_->grab(request, &error)) {
     ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp id %u: %s", message->id, error.c_str());
   }

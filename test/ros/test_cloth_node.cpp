@@ -424,6 +424,54 @@ TEST_F(NodeTest, GraspReachesTargetAndReleaseLetsItFall) {
                       << " m (held at " << z_held << " m)";
 }
 
+// A review's: a grab's target was expressed from header.frame_id into the node's frame, its force was
+// taken as given, in the node's frame whatever the header said.
+TEST_F(NodeTest, GraspForceInAnotherFrameIsRotatedIntoFrameId) {
+  // grasp_frame is world turned +90 deg about z: its x axis is world's y. A 5 N force along grasp_frame's x
+  // must push the held corner along world +y, out of the hanging cloth's plane (y = 0); unrotated it would
+  // push along world x, in the plane (y stays 0), and rotated the wrong way towards -y.
+  tf2_ros::StaticTransformBroadcaster broadcaster;
+  geometry_msgs::TransformStamped transform;
+  transform.header.stamp = ros::Time::now();
+  transform.header.frame_id = "world";
+  transform.child_frame_id = "grasp_frame";
+  transform.transform.rotation.z = std::sin(M_PI / 4.0);
+  transform.transform.rotation.w = std::cos(M_PI / 4.0);
+  broadcaster.sendTransform(transform);
+
+  ClothState::ConstPtr frame0;
+  ASSERT_NO_FATAL_FAILURE(freshScene(false, &frame0));
+  const int particle = static_cast<int>((kHangingRows - 1) * kHangingCols);  // bottom-left corner, free
+  // Held where it hangs (that point in grasp_frame: world (x, y, z) is (y, -x, z) there) by a 100 N/m
+  // spring: the force moves it about 5 N / 100 N/m = 5 cm; half of that is the test's bar.
+  const geometry_msgs::Point& rest = frame0->positions[particle];
+  cloth_sim::Grasp grab = grabMessage(1, particle, geometry_msgs::Point(), 100.0);
+  grab.header.frame_id = "grasp_frame";
+  grab.target.x = rest.y;
+  grab.target.y = -rest.x;
+  grab.target.z = rest.z;
+  grab.force.x = 5.0;
+  constexpr double kPushed_m = 0.025;
+  ros::Publisher grasp_pub = nh_.advertise<cloth_sim::Grasp>(nodeTopic("grasp"), 10);
+  ASSERT_TRUE(waitForSubscribers(grasp_pub, 1, 10.0));
+  const std::uint64_t since = states_->count();
+  ClothState::ConstPtr pushed;
+  const auto deadline = deadlineIn(15.0);
+  while (!pushed && Clock::now() < deadline) {
+    grasp_pub.publish(grab);  // again until it acts: a grab in a frame tf does not know yet is dropped
+    pushed = states_->waitFor([&](const ClothState& s) { return s.positions[particle].y > rest.y + kPushed_m; },
+                              0.25, since);
+  }
+  const geometry_msgs::Point& last = states_->latest()->positions[particle];
+  ASSERT_TRUE(pushed) << "particle " << particle << " went from (" << rest.x << ", " << rest.y << ", " << rest.z
+                      << ") to (" << last.x << ", " << last.y << ", " << last.z << ")";
+  EXPECT_TRUE(allFinite(*pushed));
+  cloth_sim::Grasp release;
+  release.id = 1;
+  release.action = cloth_sim::Grasp::RELEASE;
+  grasp_pub.publish(release);
+}
+
 // ---- 3b. Every kind of bad message (bad_messages.test: a node of its own, so that no earlier test has
 // used the throttled warnings these wait for; in this order) -------------------------------------------
 
