@@ -744,6 +744,7 @@ bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::L
   if (new_texture) simulation_->setVertexColors(colors);
   timer_.setPeriod(ros::Duration(simulation_->options().frameDuration_s()));
   last_report_ = core::FrameReport();
+  step_cost_ms_ = 0.0;  // the file's options (integrator, substeps, tuning) may cost another amount a frame
   asleep_ = false;
   forgetPublished();  // the loaded cloth goes out with the state, whatever the clock reads
   reanchor();  // the loaded frame is due now: the run continues from here at the frame rate

@@ -19,6 +19,8 @@
 #include <cloth_sim/ClothState.h>
 #include <cloth_sim/Grasp.h>
 #include <cloth_sim/LoadScene.h>
+#include <cloth_sim/LoadState.h>
+#include <cloth_sim/SaveState.h>
 #include <cloth_sim/Step.h>
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <dynamic_reconfigure/Reconfigure.h>
@@ -1027,6 +1029,49 @@ TEST_F(NodeTest, DiagnosticsReportTheSimulation) {
   EXPECT_TRUE(std::isfinite(cost_ms) && cost_ms > 0.0) << cost_ms;
   EXPECT_TRUE(std::isfinite(real_time_factor) && real_time_factor > 0.0) << real_time_factor;
   EXPECT_TRUE(std::isfinite(strain) && strain >= 0.0 && strain < 0.5) << strain;
+}
+
+// A review's: ~load_state replaces the options (integrator, substeps, tuning) but kept the frame cost of
+// the setup before it, which ~step then used to estimate a call's time (install() forgets it for a new
+// scene). Paused, no frame runs after the load: the cost reported must be none (0), not the old frames'.
+TEST_F(NodeTest, DiagnosticsStepCostIsForgottenWhenLoadStateReplacesTheSetup) {
+  Monitor<diagnostic_msgs::DiagnosticArray> diagnostics(nh_, "/diagnostics");
+  ASSERT_NO_FATAL_FAILURE(freshScene(true));
+  const std::string name = nodeName().substr(1) + ": simulation";
+  // The step cost in the first report stamped after `after` (diagnostics come at 1 Hz); NaN if none came.
+  const auto costAfter = [&](const ros::Time& after) {
+    double cost_ms = std::numeric_limits<double>::quiet_NaN();
+    diagnostics.waitFor(
+        [&](const diagnostic_msgs::DiagnosticArray& a) {
+          if (a.header.stamp <= after) return false;
+          for (const auto& status : a.status) {
+            if (status.name != name) continue;
+            for (const auto& kv : status.values) {
+              if (kv.key == "step cost [ms]") cost_ms = std::stod(kv.value);
+            }
+            return true;
+          }
+          return false;
+        },
+        20.0, 0);
+    return cost_ms;
+  };
+  ASSERT_TRUE(step(5));
+  const double before_ms = costAfter(ros::Time::now());
+  ASSERT_GT(before_ms, 0.0) << "no frame cost reported after 5 frames: the test would prove nothing";
+
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("cloth_sim_step_cost_" + std::to_string(getpid()) + ".state")).string();
+  cloth_sim::SaveState save;
+  save.request.path = path;
+  ASSERT_TRUE(callService(nodeTopic("save_state"), save));
+  ASSERT_TRUE(save.response.success) << save.response.message;
+  cloth_sim::LoadState load;
+  load.request.path = path;
+  ASSERT_TRUE(callService(nodeTopic("load_state"), load));
+  std::filesystem::remove(path);
+  ASSERT_TRUE(load.response.success) << load.response.message;
+  EXPECT_EQ(costAfter(ros::Time::now()), 0.0) << "the frames before ~load_state cost " << before_ms << " ms each";
 }
 
 // ---- 11b. A cloth at rest sleeps, and a grasp wakes it (services.test) ----------------------------
