@@ -118,7 +118,7 @@ bool ClothNode::start(std::string* error) {
     return false;
   }
   scenes_dir_ = ros::package::getPath("cloth_sim") + "/config/scenes";
-  std::unique_ptr<core::Simulation> simulation = buildSimulation(scene, true, error);
+  std::unique_ptr<core::Simulation> simulation = buildSimulation(scene, &parameters, error);
   if (!simulation) return false;
   simulation_ = std::move(simulation);
   // The mesh is the heavy message (each vertex six times, with colours): a viewer may want it less often.
@@ -225,8 +225,9 @@ ClothNode::~ClothNode() {
   pnh_.getCallbackQueue()->removeByID(reinterpret_cast<std::uint64_t>(this));
 }
 
-std::unique_ptr<core::Simulation> ClothNode::buildSimulation(const std::string& scene, bool overlay_parameters,
-                                                       std::string* error) const {
+std::unique_ptr<core::Simulation> ClothNode::buildSimulation(const std::string& scene,
+                                                             const XmlRpc::XmlRpcValue* parameters,
+                                                             std::string* error) const {
   const std::string path = core::resolveScenePath(scene, scenes_dir_);
   core::SceneOptions options;
   std::vector<std::string> errors;
@@ -235,29 +236,26 @@ std::unique_ptr<core::Simulation> ClothNode::buildSimulation(const std::string& 
              join(core::builtinSceneNames(scenes_dir_), ", ") + ")";
     return nullptr;
   }
-  if (overlay_parameters) {
-    XmlRpc::XmlRpcValue parameters = parameterTree(pnh_.getNamespace());
-    if (parameters.getType() == XmlRpc::XmlRpcValue::TypeStruct) {
-      YAML::Node overlay(YAML::NodeType::Map);
-      const std::vector<std::string>& keys = core::sceneKeys();
-      for (auto& entry : parameters) {
-        if (nodeOnlyParameters().count(entry.first)) continue;
-        if (std::find(keys.begin(), keys.end(), entry.first) == keys.end()) {
-          ROS_WARN("cloth_node: ignoring parameter ~%s: not a scene key (see the README's parameter table)",
-                   entry.first.c_str());
-          continue;
-        }
-        overlay[entry.first] = toYaml(entry.second);
+  if (parameters && parameters->getType() == XmlRpc::XmlRpcValue::TypeStruct) {
+    YAML::Node overlay(YAML::NodeType::Map);
+    const std::vector<std::string>& keys = core::sceneKeys();
+    for (const auto& entry : *parameters) {
+      if (nodeOnlyParameters().count(entry.first)) continue;
+      if (std::find(keys.begin(), keys.end(), entry.first) == keys.end()) {
+        ROS_WARN("cloth_node: ignoring parameter ~%s: not a scene key (see the README's parameter table)",
+                 entry.first.c_str());
+        continue;
       }
-      if (!core::applySceneYaml(overlay, "parameter", &options, &errors)) {
-        *error = join(errors, "; ");
-        return nullptr;
-      }
-      const std::vector<std::string> problems = core::validateSceneOptions(options);
-      if (!problems.empty()) {
-        *error = "invalid parameter: " + join(problems, "; ");
-        return nullptr;
-      }
+      overlay[entry.first] = toYaml(entry.second);
+    }
+    if (!core::applySceneYaml(overlay, "parameter", &options, &errors)) {
+      *error = join(errors, "; ");
+      return nullptr;
+    }
+    const std::vector<std::string> problems = core::validateSceneOptions(options);
+    if (!problems.empty()) {
+      *error = "invalid parameter: " + join(problems, "; ");
+      return nullptr;
     }
   }
   if (!urdf_colliders_.empty()) {
@@ -601,7 +599,7 @@ bool ClothNode::onLoadScene(cloth_sim::LoadScene::Request& request, cloth_sim::L
   std::string error = core::textLengthProblem("scene", request.scene);
   std::unique_ptr<core::Simulation> simulation;
   try {
-    if (error.empty()) simulation = buildSimulation(request.scene, false, &error);
+    if (error.empty()) simulation = buildSimulation(request.scene, nullptr, &error);  // the scene alone
     if (simulation) install(std::move(simulation));
   } catch (const std::exception& e) {  // nothing was swapped: install throws only before its swap
     error = "scene '" + request.scene + "': " + e.what();

@@ -135,10 +135,10 @@ class ClothNode {
   class StepChunk;
   class GraspDrain;
 
-  /// Builds a validated simulation from a scene (name or path) overlaid with the node's private
-  /// parameters (only at start-up: overlay_parameters).
-  std::unique_ptr<core::Simulation> buildSimulation(const std::string& scene, bool overlay_parameters,
-                                              std::string* error) const;
+  /// Builds a validated simulation from a scene (name or path), overlaid with the scene keys among
+  /// `parameters`, the private namespace start() read (null, as for ~load_scene: the scene alone).
+  std::unique_ptr<core::Simulation> buildSimulation(const std::string& scene, const XmlRpc::XmlRpcValue* parameters,
+                                                    std::string* error) const;
   void install(std::unique_ptr<core::Simulation> simulation);
 
   void onTimer(const ros::TimerEvent& event);
