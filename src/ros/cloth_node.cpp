@@ -5,6 +5,7 @@
 #include "cloth_sim/io/state_file.h"
 #include "cloth_sim/io/texture.h"
 #include "cloth_sim/ros/conversions.h"
+#include "cloth_sim/ros/ros_time.h"
 #include "cloth_sim/ros/shutdown.h"
 
 #include <boost/make_shared.hpp>
@@ -117,7 +118,7 @@ bool ClothNode::start(std::string* error) {
     return false;
   }
   scenes_dir_ = ros::package::getPath("cloth_sim") + "/config/scenes";
-  std::unique_ptr<core::Simulation> simulation = buildSimulation(scene, true, error);
+  std::unique_ptr<core::Simulation> simulation = buildSimulation(scene, &parameters, error);
   if (!simulation) return false;
   simulation_ = std::move(simulation);
   // The mesh is the heavy message (each vertex six times, with colours): a viewer may want it less often.
@@ -224,8 +225,9 @@ ClothNode::~ClothNode() {
   pnh_.getCallbackQueue()->removeByID(reinterpret_cast<std::uint64_t>(this));
 }
 
-std::unique_ptr<core::Simulation> ClothNode::buildSimulation(const std::string& scene, bool overlay_parameters,
-                                                       std::string* error) const {
+std::unique_ptr<core::Simulation> ClothNode::buildSimulation(const std::string& scene,
+                                                             const XmlRpc::XmlRpcValue* parameters,
+                                                             std::string* error) const {
   const std::string path = core::resolveScenePath(scene, scenes_dir_);
   core::SceneOptions options;
   std::vector<std::string> errors;
@@ -234,29 +236,26 @@ std::unique_ptr<core::Simulation> ClothNode::buildSimulation(const std::string& 
              join(core::builtinSceneNames(scenes_dir_), ", ") + ")";
     return nullptr;
   }
-  if (overlay_parameters) {
-    XmlRpc::XmlRpcValue parameters = parameterTree(pnh_.getNamespace());
-    if (parameters.getType() == XmlRpc::XmlRpcValue::TypeStruct) {
-      YAML::Node overlay(YAML::NodeType::Map);
-      const std::vector<std::string>& keys = core::sceneKeys();
-      for (auto& entry : parameters) {
-        if (nodeOnlyParameters().count(entry.first)) continue;
-        if (std::find(keys.begin(), keys.end(), entry.first) == keys.end()) {
-          ROS_WARN("cloth_node: ignoring parameter ~%s: not a scene key (see the README's parameter table)",
-                   entry.first.c_str());
-          continue;
-        }
-        overlay[entry.first] = toYaml(entry.second);
+  if (parameters && parameters->getType() == XmlRpc::XmlRpcValue::TypeStruct) {
+    YAML::Node overlay(YAML::NodeType::Map);
+    const std::vector<std::string>& keys = core::sceneKeys();
+    for (const auto& entry : *parameters) {
+      if (nodeOnlyParameters().count(entry.first)) continue;
+      if (std::find(keys.begin(), keys.end(), entry.first) == keys.end()) {
+        ROS_WARN("cloth_node: ignoring parameter ~%s: not a scene key (see the README's parameter table)",
+                 entry.first.c_str());
+        continue;
       }
-      if (!core::applySceneYaml(overlay, "parameter", &options, &errors)) {
-        *error = join(errors, "; ");
-        return nullptr;
-      }
-      const std::vector<std::string> problems = core::validateSceneOptions(options);
-      if (!problems.empty()) {
-        *error = "invalid parameter: " + join(problems, "; ");
-        return nullptr;
-      }
+      overlay[entry.first] = toYaml(entry.second);
+    }
+    if (!core::applySceneYaml(overlay, "parameter", &options, &errors)) {
+      *error = join(errors, "; ");
+      return nullptr;
+    }
+    const std::vector<std::string> problems = core::validateSceneOptions(options);
+    if (!problems.empty()) {
+      *error = "invalid parameter: " + join(problems, "; ");
+      return nullptr;
     }
   }
   if (!urdf_colliders_.empty()) {
@@ -320,7 +319,7 @@ void ClothNode::onTimer(const ros::TimerEvent&) {
   if (!anchored_) reanchor();
   if (anchored_ && !paused_) {
     const double elapsed_frames =
-        std::max(0.0, (now - anchor_time_).toSec() * simulation_->options().frame_rate_hz);
+        std::max(0.0, secondsBetween(anchor_time_, now) * simulation_->options().frame_rate_hz);
     const auto due = anchor_frame_ + static_cast<std::uint64_t>(std::floor(elapsed_frames + kFrameDueTolerance));
     std::int64_t behind = static_cast<std::int64_t>(due) - static_cast<std::int64_t>(simulation_->state().frame);
     // In wall time a slow machine must not snowball; under /clock every frame is owed (determinism),
@@ -539,17 +538,23 @@ void ClothNode::applyGrasp(const cloth_sim::Grasp::ConstPtr& message) {
     ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp id %u: target is not finite", message->id);
     return;
   }
+  // The force in header.frame_id too: a free vector, rotated only (as ~wind's).
+  geometry_msgs::Vector3Stamped force;
+  force.header = message->header;
+  force.vector = message->force;
   geometry_msgs::PointStamped in_frame;
+  geometry_msgs::Vector3Stamped force_in_frame;
   std::string why;
-  if (!frame_inputs_.express(target, frame_id_, &in_frame, &why)) {
+  if (!frame_inputs_.express(target, frame_id_, &in_frame, &why) ||
+      !frame_inputs_.express(force, frame_id_, &force_in_frame, &why)) {
     ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp id %u in frame '%s': %s", message->id,
                       message->header.frame_id.c_str(), why.c_str());
     return;
   }
-  target = in_frame;
   std::string error;
   const core::GraspRequest request =
-      toGraspRequest(*message, Eigen::Vector3d(target.point.x, target.point.y, target.point.z));
+      toGraspRequest(*message, Eigen::Vector3d(in_frame.point.x, in_frame.point.y, in_frame.point.z),
+                     Eigen::Vector3d(force_in_frame.vector.x, force_in_frame.vector.y, force_in_frame.vector.z));
   if (!simulation_->grab(request, &error)) {
     ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp id %u: %s", message->id, error.c_str());
   }
@@ -596,7 +601,7 @@ bool ClothNode::onLoadScene(cloth_sim::LoadScene::Request& request, cloth_sim::L
   std::string error = core::textLengthProblem("scene", request.scene);
   std::unique_ptr<core::Simulation> simulation;
   try {
-    if (error.empty()) simulation = buildSimulation(request.scene, false, &error);
+    if (error.empty()) simulation = buildSimulation(request.scene, nullptr, &error);  // the scene alone
     if (simulation) install(std::move(simulation));
   } catch (const std::exception& e) {  // nothing was swapped: install throws only before its swap
     error = "scene '" + request.scene + "': " + e.what();
@@ -739,6 +744,7 @@ bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::L
   if (new_texture) simulation_->setVertexColors(colors);
   timer_.setPeriod(ros::Duration(simulation_->options().frameDuration_s()));
   last_report_ = core::FrameReport();
+  step_cost_ms_ = 0.0;  // the file's options (integrator, substeps, tuning) may cost another amount a frame
   asleep_ = false;
   forgetPublished();  // the loaded cloth goes out with the state, whatever the clock reads
   reanchor();  // the loaded frame is due now: the run continues from here at the frame rate

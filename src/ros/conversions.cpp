@@ -269,13 +269,14 @@ std::vector<geometry_msgs::TransformStamped> toSphereTransforms(const core::Simu
   return transforms;
 }
 
-core::GraspRequest toGraspRequest(const cloth_sim::Grasp& message, const Eigen::Vector3d& target_in_frame_m) {
+core::GraspRequest toGraspRequest(const cloth_sim::Grasp& message, const Eigen::Vector3d& target_in_frame_m,
+                                  const Eigen::Vector3d& force_in_frame_N) {
   core::GraspRequest request;
   request.id = message.id;
   request.particle = message.particle;
   request.target_m = target_in_frame_m;
   request.stiffness_N_per_m = message.stiffness;
-  request.extra_force_N = Eigen::Vector3d(message.force.x, message.force.y, message.force.z);
+  request.extra_force_N = force_in_frame_N;
   return request;
 }
 

@@ -1,6 +1,7 @@
 #include "cloth_sim/ros/depth_cameras.h"
 
 #include "cloth_sim/core/constants.h"
+#include "cloth_sim/ros/ros_time.h"
 #include "cloth_sim/ros/sensor_conversions.h"
 
 #include <sensor_msgs/CameraInfo.h>
@@ -112,9 +113,9 @@ void DepthCameras::publishCamera(Camera& camera, const core::Simulation& simulat
   }
   const double period_s = 1.0 / camera.options.rate_hz;
   const double tolerance_s = kDueTolerance_frames * simulation.options().frameDuration_s();
-  if (!camera.next_due.isZero() && (camera.next_due - stamp).toSec() > tolerance_s) return;
+  if (!camera.next_due.isZero() && secondsBetween(stamp, camera.next_due) > tolerance_s) return;
   // Due times advance by whole periods (the average rate is the camera's), restarting after a long gap.
-  const bool fell_behind = camera.next_due.isZero() || (stamp - camera.next_due).toSec() > period_s;
+  const bool fell_behind = camera.next_due.isZero() || secondsBetween(camera.next_due, stamp) > period_s;
   camera.next_due = (fell_behind ? stamp : camera.next_due) + ros::Duration(period_s);
 
   Eigen::Isometry3d world_from_optical;
@@ -157,24 +158,23 @@ bool DepthCameras::lookupPose(const Camera& camera, const ros::Time& stamp, Eige
   const std::string& frame = camera.options.frame;
   geometry_msgs::TransformStamped transform;
   try {
-    transform = tf_buffer_.lookupTransform(world_frame_, frame, stamp);
-  } catch (const tf2::ExtrapolationException&) {
-    // Usually the robot's newest pose is a little older than the frame: take it if it is recent.
-    try {
+    // Asked first without a message: tf2 writes the message of an extrapolation with a ros::Duration, which
+    // throws std::runtime_error (not a tf2 exception) when the image's time lies 2^31 s or more past tf's data.
+    if (tf_buffer_.canTransform(world_frame_, frame, stamp)) {
+      transform = tf_buffer_.lookupTransform(world_frame_, frame, stamp);
+    } else {
+      // Usually the robot's newest pose is a little older than the frame: take it if it is recent.
       transform = tf_buffer_.lookupTransform(world_frame_, frame, ros::Time(0));
-    } catch (const tf2::TransformException& e) {
-      *problem = "no pose for frame '" + frame + "' in '" + world_frame_ + "': " + e.what();
-      return false;
-    }
-    // Usually older than the image; newer only when the image's time is before tf's buffer (then the
-    // pose is as far from the image's time the other way).
-    const double age_s = (stamp - transform.header.stamp).toSec();
-    if (std::abs(age_s) > kMaxPoseAge_s) {
-      std::ostringstream out;
-      out << "the newest pose of frame '" << frame << "' is " << age_s << " s away from the image's time (at most "
-          << kMaxPoseAge_s << " s)";
-      *problem = out.str();
-      return false;
+      // Usually older than the image; newer only when the image's time is before tf's buffer (then the
+      // pose is as far from the image's time the other way).
+      const double age_s = secondsBetween(transform.header.stamp, stamp);
+      if (std::abs(age_s) > kMaxPoseAge_s) {
+        std::ostringstream out;
+        out << "the newest pose of frame '" << frame << "' is " << age_s << " s away from the image's time (at most "
+            << kMaxPoseAge_s << " s)";
+        *problem = out.str();
+        return false;
+      }
     }
   } catch (const tf2::TransformException& e) {
     *problem = "no pose for frame '" + frame + "' in '" + world_frame_ + "': " + e.what();

@@ -1,6 +1,7 @@
 #include "cloth_sim/ros/grippers.h"
 
 #include "cloth_sim/ros/conversions.h"
+#include "cloth_sim/ros/ros_time.h"
 
 #include <geometry_msgs/WrenchStamped.h>
 
@@ -94,10 +95,10 @@ void Grippers::beforeFrame(const ros::Time& frame_end) {
       continue;  // no new pose: the core holds it where it was last seen
     }
     // A static transform (stamp 0) is never stale.
-    held.lost = !stamp.isZero() && (frame_end - stamp).toSec() > kLostAfter_s;
+    held.lost = !stamp.isZero() && secondsBetween(stamp, frame_end) > kLostAfter_s;
     if (held.lost) {
       std::ostringstream reason;
-      reason << "its newest transform is " << (frame_end - stamp).toSec() << " s old";
+      reason << "its newest transform is " << secondsBetween(stamp, frame_end) << " s old";
       held.lost_reason = reason.str();
       continue;
     }

@@ -1,6 +1,7 @@
 #include "cloth_sim/ros/mouse_drag.h"
 
 #include "cloth_sim/ros/conversions.h"
+#include "cloth_sim/ros/ros_time.h"
 
 #include <visualization_msgs/InteractiveMarker.h>
 #include <visualization_msgs/InteractiveMarkerControl.h>
@@ -26,7 +27,7 @@ MouseDrag::MouseDrag(const std::string& topic_ns, GraspSink grasp, ParticlePicke
 
 void MouseDrag::update(const core::Simulation& simulation, const std::string& frame_id, const ros::Time& now) {
   if (dragging_) return;
-  const double since_s = (now - last_shape_).toSec();
+  const double since_s = secondsBetween(last_shape_, now);  // from zero too: a /clock past 2^31 s
   if (!last_shape_.isZero() && since_s >= 0.0 && since_s < kShapeRefreshPeriod_s) return;
   last_shape_ = now;
   visualization_msgs::InteractiveMarker marker;

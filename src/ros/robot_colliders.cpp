@@ -1,5 +1,7 @@
 #include "cloth_sim/ros/robot_colliders.h"
 
+#include "cloth_sim/ros/ros_time.h"
+
 #include <urdf/model.h>
 
 #include <set>
@@ -73,9 +75,9 @@ void FrameColliderInputs::beforeFrame(const ros::Time& frame_end) {
       problems_[c] = "tf: " + why;
       continue;
     }
-    if (!stamp.isZero() && (frame_end - stamp).toSec() > kLostAfter_s) {
+    if (!stamp.isZero() && secondsBetween(stamp, frame_end) > kLostAfter_s) {
       std::ostringstream reason;
-      reason << "its newest transform is " << (frame_end - stamp).toSec() << " s old";
+      reason << "its newest transform is " << secondsBetween(stamp, frame_end) << " s old";
       problems_[c] = reason.str();
       continue;
     }

@@ -125,9 +125,10 @@ bool grasp(FuzzedDataProvider& input, core::Simulation& simulation) {
   message.force.y = consumeDouble(input);
   message.force.z = consumeDouble(input);
   if (message.action == cloth_sim::Grasp::RELEASE) return simulation.release(message.id);
-  // The node transforms the target into its frame first (tf); here the frames are the same.
+  // The node expresses the target and the force in its frame first (tf); here the frames are the same.
   const core::GraspRequest request =
-      cloth_sim::toGraspRequest(message, Eigen::Vector3d(message.target.x, message.target.y, message.target.z));
+      cloth_sim::toGraspRequest(message, Eigen::Vector3d(message.target.x, message.target.y, message.target.z),
+                                Eigen::Vector3d(message.force.x, message.force.y, message.force.z));
   std::string error;
   if (!simulation.grab(request, &error)) {
     require(!error.empty(), "grab refused without saying why");

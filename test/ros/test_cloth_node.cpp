@@ -10,13 +10,17 @@
 //   sim_time_twins.test SimTimeTwins.*                       (two node processes on one /clock)
 //   sim_time_rewind.test SimTimeRewind.*                     (/clock sent back after leaps, a fresh node)
 //   sim_time_tf.test  SimTimeTf.*                              (ball under /use_sim_time: its spheres' tf, colliders)
+//   sim_time_late.test SimTimeLate.*                         (/clock past 2^31 s, and a leap of more than 2^31 s)
 //   bad_params.test   BadParams.*                              (no node: the tests start it themselves)
 // Every wait is a condition with a wall-clock deadline; no test sleeps to "let things settle".
 #include "test_helpers.h"
 
+#include <cloth_sim/Attach.h>
 #include <cloth_sim/ClothState.h>
 #include <cloth_sim/Grasp.h>
 #include <cloth_sim/LoadScene.h>
+#include <cloth_sim/LoadState.h>
+#include <cloth_sim/SaveState.h>
 #include <cloth_sim/Step.h>
 #include <diagnostic_msgs/DiagnosticArray.h>
 #include <dynamic_reconfigure/Reconfigure.h>
@@ -24,12 +28,14 @@
 #include <ros/package.h>
 #include <rosgraph_msgs/Clock.h>
 #include <rosgraph_msgs/Log.h>
+#include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <std_srvs/SetBool.h>
 #include <std_srvs/Trigger.h>
 #include <tf2_msgs/TFMessage.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/static_transform_broadcaster.h>
+#include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 #include <visualization_msgs/Marker.h>
 #include <visualization_msgs/MarkerArray.h>
@@ -418,6 +424,54 @@ TEST_F(NodeTest, GraspReachesTargetAndReleaseLetsItFall) {
       [&](const ClothState& s) { return s.positions[particle].z < z_held - 0.1; }, 10.0, release_since);
   EXPECT_TRUE(fallen) << "released particle stayed at z = " << states_->latest()->positions[particle].z
                       << " m (held at " << z_held << " m)";
+}
+
+// A review's: a grab's target was expressed from header.frame_id into the node's frame, its force was
+// taken as given, in the node's frame whatever the header said.
+TEST_F(NodeTest, GraspForceInAnotherFrameIsRotatedIntoFrameId) {
+  // grasp_frame is world turned +90 deg about z: its x axis is world's y. A 5 N force along grasp_frame's x
+  // must push the held corner along world +y, out of the hanging cloth's plane (y = 0); unrotated it would
+  // push along world x, in the plane (y stays 0), and rotated the wrong way towards -y.
+  tf2_ros::StaticTransformBroadcaster broadcaster;
+  geometry_msgs::TransformStamped transform;
+  transform.header.stamp = ros::Time::now();
+  transform.header.frame_id = "world";
+  transform.child_frame_id = "grasp_frame";
+  transform.transform.rotation.z = std::sin(M_PI / 4.0);
+  transform.transform.rotation.w = std::cos(M_PI / 4.0);
+  broadcaster.sendTransform(transform);
+
+  ClothState::ConstPtr frame0;
+  ASSERT_NO_FATAL_FAILURE(freshScene(false, &frame0));
+  const int particle = static_cast<int>((kHangingRows - 1) * kHangingCols);  // bottom-left corner, free
+  // Held where it hangs (that point in grasp_frame: world (x, y, z) is (y, -x, z) there) by a 100 N/m
+  // spring: the force moves it about 5 N / 100 N/m = 5 cm; half of that is the test's bar.
+  const geometry_msgs::Point& rest = frame0->positions[particle];
+  cloth_sim::Grasp grab = grabMessage(1, particle, geometry_msgs::Point(), 100.0);
+  grab.header.frame_id = "grasp_frame";
+  grab.target.x = rest.y;
+  grab.target.y = -rest.x;
+  grab.target.z = rest.z;
+  grab.force.x = 5.0;
+  constexpr double kPushed_m = 0.025;
+  ros::Publisher grasp_pub = nh_.advertise<cloth_sim::Grasp>(nodeTopic("grasp"), 10);
+  ASSERT_TRUE(waitForSubscribers(grasp_pub, 1, 10.0));
+  const std::uint64_t since = states_->count();
+  ClothState::ConstPtr pushed;
+  const auto deadline = deadlineIn(15.0);
+  while (!pushed && Clock::now() < deadline) {
+    grasp_pub.publish(grab);  // again until it acts: a grab in a frame tf does not know yet is dropped
+    pushed = states_->waitFor([&](const ClothState& s) { return s.positions[particle].y > rest.y + kPushed_m; },
+                              0.25, since);
+  }
+  const geometry_msgs::Point& last = states_->latest()->positions[particle];
+  ASSERT_TRUE(pushed) << "particle " << particle << " went from (" << rest.x << ", " << rest.y << ", " << rest.z
+                      << ") to (" << last.x << ", " << last.y << ", " << last.z << ")";
+  EXPECT_TRUE(allFinite(*pushed));
+  cloth_sim::Grasp release;
+  release.id = 1;
+  release.action = cloth_sim::Grasp::RELEASE;
+  grasp_pub.publish(release);
 }
 
 // ---- 3b. Every kind of bad message (bad_messages.test: a node of its own, so that no earlier test has
@@ -1000,6 +1054,49 @@ TEST_F(NodeTest, DiagnosticsReportTheSimulation) {
   EXPECT_TRUE(std::isfinite(strain) && strain >= 0.0 && strain < 0.5) << strain;
 }
 
+// A review's: ~load_state replaces the options (integrator, substeps, tuning) but kept the frame cost of
+// the setup before it, which ~step then used to estimate a call's time (install() forgets it for a new
+// scene). Paused, no frame runs after the load: the cost reported must be none (0), not the old frames'.
+TEST_F(NodeTest, DiagnosticsStepCostIsForgottenWhenLoadStateReplacesTheSetup) {
+  Monitor<diagnostic_msgs::DiagnosticArray> diagnostics(nh_, "/diagnostics");
+  ASSERT_NO_FATAL_FAILURE(freshScene(true));
+  const std::string name = nodeName().substr(1) + ": simulation";
+  // The step cost in the first report stamped after `after` (diagnostics come at 1 Hz); NaN if none came.
+  const auto costAfter = [&](const ros::Time& after) {
+    double cost_ms = std::numeric_limits<double>::quiet_NaN();
+    diagnostics.waitFor(
+        [&](const diagnostic_msgs::DiagnosticArray& a) {
+          if (a.header.stamp <= after) return false;
+          for (const auto& status : a.status) {
+            if (status.name != name) continue;
+            for (const auto& kv : status.values) {
+              if (kv.key == "step cost [ms]") cost_ms = std::stod(kv.value);
+            }
+            return true;
+          }
+          return false;
+        },
+        20.0, 0);
+    return cost_ms;
+  };
+  ASSERT_TRUE(step(5));
+  const double before_ms = costAfter(ros::Time::now());
+  ASSERT_GT(before_ms, 0.0) << "no frame cost reported after 5 frames: the test would prove nothing";
+
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("cloth_sim_step_cost_" + std::to_string(getpid()) + ".state")).string();
+  cloth_sim::SaveState save;
+  save.request.path = path;
+  ASSERT_TRUE(callService(nodeTopic("save_state"), save));
+  ASSERT_TRUE(save.response.success) << save.response.message;
+  cloth_sim::LoadState load;
+  load.request.path = path;
+  ASSERT_TRUE(callService(nodeTopic("load_state"), load));
+  std::filesystem::remove(path);
+  ASSERT_TRUE(load.response.success) << load.response.message;
+  EXPECT_EQ(costAfter(ros::Time::now()), 0.0) << "the frames before ~load_state cost " << before_ms << " ms each";
+}
+
 // ---- 11b. A cloth at rest sleeps, and a grasp wakes it (services.test) ----------------------------
 
 TEST_F(NodeTest, AClothAtRestSleepsAndAGraspWakesIt) {
@@ -1402,6 +1499,147 @@ TEST(SimTimeTwins, TwoNodeProcessesOnOneClockGiveIdenticalStates) {
     ASSERT_TRUE(sameBits(*a, *b)) << "the two runs differ at frame " << k;
   }
   EXPECT_FALSE(sameBits(*start, *a)) << "the cloth did not move: the comparison would prove nothing";
+}
+
+// ---- 8b. A /clock past 2^31 s (sim_time_late.test) ------------------------------------------------
+
+// An audit's: ros::Time minus ros::Time throws std::runtime_error when the difference is beyond +-2^31 s
+// (a ros::Duration's seconds are an int32), and an exception out of the timer callback ends the node. Under a
+// /clock at 2^31 s or later the node died at its first tick (the mouse marker's refresh measured from a zero
+// time), and a leap of /clock by more than 2^31 s killed it in its frame count, in the grippers' and frame
+// colliders' tf ages, in the cameras' due times and pose ages, and in tf2's own message for a lookup that
+// far ahead of its data. ros::Time's seconds are a uint32, so such clocks run to about 4.29e9 s.
+
+namespace {
+
+/// 2^31 s: the first whole second a ros::Duration cannot hold.
+constexpr std::uint32_t k2To31_s = 2147483648u;
+
+/// Tf frames the test moves (sim_time_late.test): `hand` holds two particles (gripper id 1),
+/// `sweeper` carries the frame collider (far from the cloth) and `eye_optical` the camera `eye`.
+void sendFrames(tf2_ros::TransformBroadcaster& broadcaster, const ros::Time& stamp) {
+  std::vector<geometry_msgs::TransformStamped> frames(3);
+  for (auto& frame : frames) {
+    frame.header.stamp = stamp;
+    frame.header.frame_id = "world";
+    frame.transform.rotation.w = 1.0;
+  }
+  frames[0].child_frame_id = "hand";
+  frames[0].transform.translation.z = 1.5;
+  frames[1].child_frame_id = "sweeper";
+  frames[1].transform.translation.y = 2.0;
+  frames[2].child_frame_id = "eye_optical";  // 2 m in front of the cloth, looking at it (optical z = world +y)
+  frames[2].transform.translation.y = -2.0;
+  frames[2].transform.translation.z = 1.0;
+  frames[2].transform.rotation.x = -std::sin(M_PI / 4.0);
+  frames[2].transform.rotation.w = std::cos(M_PI / 4.0);
+  broadcaster.sendTransform(frames);
+}
+
+}  // namespace
+
+// First in its file: the node must not have seen a clock before.
+TEST(SimTimeLate, AFirstClockPast2To31SecondsIsSimulatedFrameByFrame) {
+  ASSERT_TRUE(ros::Time::isSimTime()) << "sim_time_late.test must set /use_sim_time";
+  ros::NodeHandle nh;
+  Monitor<ClothState> states(nh, nodeTopic("state"));
+  ClockDriver clock(nh);
+  ASSERT_TRUE(waitUntil([&] { return states.publisherCount() >= 1; }, 15.0)) << "node not publishing ~state";
+  const ros::Time first(k2To31_s + 10u, 0);
+  std::uint64_t index = 0;
+  const auto settled = clock.settleAt(first, states, &index);
+  ASSERT_TRUE(settled) << "no state stamped with the first clock, " << first;
+  ros::Time now = first;
+  for (std::uint64_t k = 1; k <= 10; ++k) {
+    now += ClockDriver::kTick;
+    clock.publish(now);
+    const auto state = states.waitFor([&](const ClothState& s) { return s.header.stamp == now; }, 10.0, index, &index);
+    ASSERT_TRUE(state) << "no state at " << now << ": the node died or stopped";
+    EXPECT_EQ(state->frame, settled->frame + k);
+  }
+}
+
+TEST(SimTimeLate, ALeapOfMoreThan2To31SecondsIsCountedFromTheNewTime) {
+  ASSERT_TRUE(ros::Time::isSimTime()) << "sim_time_late.test must set /use_sim_time";
+  ros::NodeHandle nh;
+  Monitor<ClothState> states(nh, nodeTopic("state"));
+  Monitor<sensor_msgs::CameraInfo> images(nh, nodeTopic("eye/depth/camera_info"));
+  ClockDriver clock(nh);
+  tf2_ros::TransformBroadcaster broadcaster;
+  ASSERT_TRUE(waitUntil([&] { return states.publisherCount() >= 1 && images.publisherCount() >= 1; }, 15.0))
+      << "the node publishes no ~state or no ~eye/depth/camera_info";
+  // Back from the test above, if it ran (by less than 2^31 s: tf2_ros's listener computes that jump as a
+  // ros::Duration too). After a jump back the node counts frames from its first tick after the new time
+  // (README "use_sim_time"): tick until it answers.
+  ros::Time now(100, 0);
+  std::uint64_t index = 0;
+  ClothState::ConstPtr answered;
+  for (int k = 0; k < 50 && !answered; ++k) {
+    now += ClockDriver::kTick;
+    clock.publish(now);
+    answered = states.waitFor([&](const ClothState& s) { return s.header.stamp == now; }, 1.0, index, &index);
+  }
+  ASSERT_TRUE(answered) << "no state after /clock went back to 100 s";
+  // A gripper on `hand` holding the top row's middle (the tf reaches the node's listener some time after
+  // the first send; each try sends it at a new time, tf2 refuses a stamp it has).
+  cloth_sim::Attach attach;
+  attach.request.id = 1;
+  attach.request.frame = "hand";
+  attach.request.particles = {4, 5};
+  const auto deadline = deadlineIn(15.0);
+  while (!attach.response.success && Clock::now() < deadline) {
+    now += ClockDriver::kTick;
+    sendFrames(broadcaster, now);
+    clock.publish(now);
+    ASSERT_TRUE(callService(nodeTopic("attach"), attach));
+    if (!attach.response.success) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  ASSERT_TRUE(attach.response.success) << attach.response.message;
+  // Frame by frame with the frames in tf at each frame's time, until the camera has rendered: gripper,
+  // frame collider and camera each hold tf data from before the leap.
+  const std::uint64_t images_before = images.count();
+  ClothState::ConstPtr before;
+  for (int k = 0; k < 50 && !images.waitFor([](const sensor_msgs::CameraInfo&) { return true; }, 0.0, images_before);
+       ++k) {
+    now += ClockDriver::kTick;
+    sendFrames(broadcaster, now);
+    clock.publish(now);
+    before = states.waitFor([&](const ClothState& s) { return s.header.stamp == now; }, 10.0, index, &index);
+    ASSERT_TRUE(before) << "no state at " << now;
+  }
+  ASSERT_TRUE(images.waitForNext(10.0, images_before)) << "the camera rendered nothing before the leap";
+  ASSERT_TRUE(before);
+
+  // The leap, with no new tf: kMaxSimTimeCatchUpFrames (500) frames are simulated and the count goes on
+  // from the new time, as for any leap (README "use_sim_time").
+  const ros::Time leapt(now.sec + k2To31_s + 1000u, now.nsec);
+  const auto after_leap = clock.settleAt(leapt, states, &index);
+  ASSERT_TRUE(after_leap) << "no state at " << leapt << " after a leap of 2^31 s + 1000 s: the node died";
+  EXPECT_EQ(after_leap->frame, before->frame + 500);
+  // Frame by frame on: the gripper's, the collider's and the camera's newest tf are 2^31 s old (too old to
+  // use; the gripper and the collider stay where they were, the camera renders nothing).
+  now = leapt;
+  for (std::uint64_t k = 1; k <= 10; ++k) {
+    now += ClockDriver::kTick;
+    clock.publish(now);
+    const auto state = states.waitFor([&](const ClothState& s) { return s.header.stamp == now; }, 10.0, index, &index);
+    ASSERT_TRUE(state) << "no state at " << now << ": the node died or stopped";
+    EXPECT_EQ(state->frame, after_leap->frame + k);
+  }
+  // The frames come back at the new time: the camera renders them again.
+  const std::uint64_t images_after = images.count();
+  const ros::Time resumed = now;
+  sensor_msgs::CameraInfo::ConstPtr image;
+  for (int k = 0; k < 50 && !image; ++k) {
+    now += ClockDriver::kTick;
+    sendFrames(broadcaster, now);
+    clock.publish(now);
+    ASSERT_TRUE(states.waitFor([&](const ClothState& s) { return s.header.stamp == now; }, 10.0, index, &index))
+        << "no state at " << now;
+    image = images.waitFor([&](const sensor_msgs::CameraInfo& i) { return i.header.stamp > resumed; }, 0.0,
+                           images_after);
+  }
+  EXPECT_TRUE(image) << "the camera rendered nothing after the frames came back at the new time";
 }
 
 // ---- 9. Bad parameters make the node exit (bad_params.test) ---------------------------------------

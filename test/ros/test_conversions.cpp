@@ -5,6 +5,7 @@
 #include "cloth_sim/io/scene_file.h"
 #include "cloth_sim/ros/conversions.h"
 #include "cloth_sim/ros/grasp_queue.h"
+#include "cloth_sim/ros/ros_time.h"
 #include "cloth_sim/ros/sensor_conversions.h"
 
 #include <boost/make_shared.hpp>
@@ -15,6 +16,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -267,6 +269,37 @@ TEST(ParticleCloud, ParticlesOutsideTheOutlineAreInvalidPoints) {
   }
   EXPECT_GT(invalid, 0);
   EXPECT_LT(invalid, 81);
+}
+
+// ros::Time minus ros::Time throws std::runtime_error beyond +-2^31 s (a ros::Duration's seconds are an
+// int32), and the node died of it under a /clock past 2^31 s (sim_time_late.test). secondsBetween gives
+// every difference of two ros::Times, and where a Duration holds it, the same bits as the Duration.
+TEST(SecondsBetween, IsTheDurationsSecondsWhereOneHoldsThemAndDoesNotThrowBeyond) {
+  const std::vector<ros::Time> times{ros::Time(0, 0),          ros::Time(0, 1),           ros::Time(100, 20000000),
+                                     ros::Time(100, 999999999), ros::Time(2147483647u, 5), ros::Time(2147483648u, 0),
+                                     ros::Time(2147484748u, 0), ros::Time(4294967295u, 999999999)};
+  int beyond = 0;
+  for (const ros::Time& a : times) {
+    for (const ros::Time& b : times) {
+      const double seconds = cloth_sim::secondsBetween(a, b);
+      const long double exact_s =
+          (static_cast<long double>(b.toNSec()) - static_cast<long double>(a.toNSec())) * 1e-9L;
+      double duration_s = 0.0;
+      try {
+        duration_s = (b - a).toSec();
+      } catch (const std::runtime_error&) {
+        ++beyond;
+        EXPECT_NEAR(seconds, static_cast<double>(exact_s), 1e-6) << a << " to " << b;
+        continue;
+      }
+      EXPECT_EQ(seconds, duration_s) << a << " to " << b;
+    }
+  }
+  EXPECT_GT(beyond, 0) << "no pair beyond a ros::Duration's range: the test proves nothing there";
+  EXPECT_EQ(cloth_sim::secondsBetween(ros::Time(100, 0), ros::Time(2147483748u, 0)), 2147483648.0);
+  EXPECT_EQ(cloth_sim::secondsBetween(ros::Time(2147483748u, 0), ros::Time(100, 0)), -2147483648.0);
+  EXPECT_EQ(cloth_sim::secondsBetween(ros::Time(0, 0), ros::Time(4294967295u, 999999999)), 4294967295.999999999);
+  EXPECT_EQ(cloth_sim::secondsBetween(ros::Time(100, 999999999), ros::Time(100, 20000000)), -0.979999999);
 }
 
 // A recording or a viewer must know which particles an outline removed: ~state says so, and a viewer's

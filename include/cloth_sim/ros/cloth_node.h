@@ -135,10 +135,10 @@ class ClothNode {
   class StepChunk;
   class GraspDrain;
 
-  /// Builds a validated simulation from a scene (name or path) overlaid with the node's private
-  /// parameters (only at start-up: overlay_parameters).
-  std::unique_ptr<core::Simulation> buildSimulation(const std::string& scene, bool overlay_parameters,
-                                              std::string* error) const;
+  /// Builds a validated simulation from a scene (name or path), overlaid with the scene keys among
+  /// `parameters`, the private namespace start() read (null, as for ~load_scene: the scene alone).
+  std::unique_ptr<core::Simulation> buildSimulation(const std::string& scene, const XmlRpc::XmlRpcValue* parameters,
+                                                    std::string* error) const;
   void install(std::unique_ptr<core::Simulation> simulation);
 
   void onTimer(const ros::TimerEvent& event);
@@ -178,7 +178,7 @@ class ClothNode {
   /// Why a new job may not run, or empty if it may.
   std::string refuseStep(const StepJob& job) const;
   /// Why `frames` more frames at the last frame's cost would take more than kMaxStepWork_s; "" if not, or
-  /// if no frame has run since the scene changed (no cost to go by).
+  /// if no frame has run since the scene or state was replaced (~load_scene, ~load_state: no cost to go by).
   std::string stepOverBudget(std::uint64_t frames) const;
   void queueStepChunk(const std::shared_ptr<StepJob>& job);
   /// Fills the job's answer and wakes the service thread waiting for it.

@@ -68,8 +68,10 @@ std::vector<geometry_msgs::TransformStamped> toSphereTransforms(const core::Simu
                                                                 const std::string& frame_id, const ros::Time& stamp,
                                                                 const std::string& prefix);
 
-/// A GRAB message as a core request; the target must already be in the simulation's frame.
-core::GraspRequest toGraspRequest(const cloth_sim::Grasp& message, const Eigen::Vector3d& target_in_frame_m);
+/// A GRAB message as a core request; its target and force (given in header.frame_id) must already be
+/// expressed in the simulation's frame (the force rotated only: a free vector).
+core::GraspRequest toGraspRequest(const cloth_sim::Grasp& message, const Eigen::Vector3d& target_in_frame_m,
+                                  const Eigen::Vector3d& force_in_frame_N);
 
 /// A parameter tree (as XmlRpc gives it) as YAML, so parameters and scene files share one parser. Each
 /// scalar carries the YAML tag of its XmlRpc type (!!bool, !!int, !!float, !!str), and the scene-file

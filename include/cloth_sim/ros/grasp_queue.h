@@ -4,7 +4,7 @@
 // dropped RELEASE left the cloth held for good (9 of 12 trials). Here a command is only ever replaced by a
 // later command for the same id, which is what the simulation would have done with it anyway (a GRAB of
 // a held id drags it, a RELEASE lets it go): the last command of each id is kept, up to kMaxPendingIds ids
-waiting at once (past that a flood of new ids makes room as below).
+// waiting at once (past that a flood of new ids makes room as below).
 #pragma once
 
 #include "cloth_sim/Grasp.h"
