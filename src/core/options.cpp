@@ -219,6 +219,15 @@ void validatePinsKept(const std::vector<std::uint8_t>& kept, const std::vector<i
 
 }  // namespace
 
+std::string windVelocityProblem(const Eigen::Vector3d& wind_m_per_s) {
+  const double magnitude = wind_m_per_s.norm();
+  if (wind_m_per_s.allFinite() && magnitude <= OptionLimits::kMaxWindSpeed_m_per_s) return "";
+  std::ostringstream out;
+  out << "magnitude " << magnitude << " m/s: must be finite and at most " << OptionLimits::kMaxWindSpeed_m_per_s
+      << " m/s";
+  return out.str();
+}
+
 std::string textLengthProblem(const std::string& field, const std::string& value) {
   if (value.size() <= OptionLimits::kMaxTextChars) return "";
   return field + ": " + std::to_string(value.size()) + " characters: at most " +
@@ -317,10 +326,9 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   }
   problems.inRange("air_damping", o.air_damping_N_s_per_m, 0.0, L::kMaxDampingN_s_per_m);
   problems.finiteVector("wind", o.wind.velocity_m_per_s, L::kMaxWindSpeed_m_per_s);
-  if (o.wind.velocity_m_per_s.allFinite() && o.wind.velocity_m_per_s.norm() > L::kMaxWindSpeed_m_per_s) {
+  if (o.wind.velocity_m_per_s.allFinite() && !windVelocityProblem(o.wind.velocity_m_per_s).empty()) {
     std::ostringstream out;
-    out << "wind = [" << o.wind.velocity_m_per_s.transpose() << "]: its magnitude " << o.wind.velocity_m_per_s.norm()
-        << " m/s must be at most " << L::kMaxWindSpeed_m_per_s << " m/s";
+    out << "wind = [" << o.wind.velocity_m_per_s.transpose() << "]: " << windVelocityProblem(o.wind.velocity_m_per_s);
     problems.fail(out.str());
   }
   problems.inRange("wind_coefficient", o.wind.paper_coefficient_N_s_per_m, 0.0, L::kMaxWindCoefficient);
@@ -417,7 +425,7 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
                   std::to_string(SceneOptions::kAutoSubsteps) + " (" + kAutoSubstepsName + ") or in [1, " +
                   std::to_string(L::kMaxSubsteps) + "]");
   }
-  problems.inRange("solver_tolerance", o.solver.tolerance, L::kMinSolverTolerance, 1.0);
+  problems.inRange("solver_tolerance", o.solver.tolerance, L::kMinSolverTolerance, L::kMaxSolverTolerance);
   problems.inRange("solver_max_iterations", o.solver.max_iterations, 1, L::kMaxSolverIterations);
   problems.inRange("threads", o.threads, 1, L::kMaxThreads);
   problems.inRange("frame_rate", o.frame_rate_hz, L::kMinFrameRateHz, L::kMaxFrameRateHz);

@@ -63,10 +63,8 @@ std::string checkState(const ClothState& state, int particles) {
 
 /// Empty when the inputs fit options (whose pins resolve to `pins`) on a grid of `particles`.
 std::string checkInputs(const ClothInputs& inputs, const std::vector<int>& pins, int particles) {
-  if (!inputs.wind_m_per_s.allFinite() || inputs.wind_m_per_s.norm() > OptionLimits::kMaxWindSpeed_m_per_s) {
-    return "wind " + vectorText(inputs.wind_m_per_s) + " m/s: must be finite and at most " +
-           std::to_string(OptionLimits::kMaxWindSpeed_m_per_s) + " m/s";
-  }
+  const std::string wind = windVelocityProblem(inputs.wind_m_per_s);
+  if (!wind.empty()) return "wind " + vectorText(inputs.wind_m_per_s) + " m/s: " + wind;
   if (inputs.pins != pins) {
     return "inputs pin " + std::to_string(inputs.pins.size()) + " particles that differ from the " +
            std::to_string(pins.size()) + " the options' pins select";

@@ -450,9 +450,10 @@ void ClothNode::publish(const ros::Time& stamp, bool with_state) {
 void ClothNode::onWind(const geometry_msgs::Vector3Stamped::ConstPtr& message) {
   geometry_msgs::Vector3Stamped wind = *message;
   const Eigen::Vector3d raw(wind.vector.x, wind.vector.y, wind.vector.z);
-  if (!raw.allFinite() || raw.norm() > core::OptionLimits::kMaxWindSpeed_m_per_s) {
-    ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~wind (%g, %g, %g) m/s: must be finite and at most %g m/s",
-                      raw.x(), raw.y(), raw.z(), core::OptionLimits::kMaxWindSpeed_m_per_s);
+  const std::string problem = core::windVelocityProblem(raw);
+  if (!problem.empty()) {
+    ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~wind (%g, %g, %g) m/s: %s", raw.x(), raw.y(), raw.z(),
+                      problem.c_str());
     return;
   }
   std::string why;

@@ -70,10 +70,10 @@ std::string ClothNode::invalidReconfigureValue(const cloth_sim::ClothConfig& con
   }
   // The sliders are the wind's components; its magnitude is what ~wind and the scene files bound.
   const Eigen::Vector3d wind(config.wind_x, config.wind_y, config.wind_z);
-  if (wind != reconfigure_wind_ && wind.norm() > core::OptionLimits::kMaxWindSpeed_m_per_s) {
+  const std::string problem = core::windVelocityProblem(wind);
+  if (wind != reconfigure_wind_ && !problem.empty()) {
     std::ostringstream out;
-    out << "wind_x, wind_y, wind_z = (" << wind.x() << ", " << wind.y() << ", " << wind.z() << "): magnitude "
-        << wind.norm() << " m/s must be at most " << core::OptionLimits::kMaxWindSpeed_m_per_s << " m/s";
+    out << "wind_x, wind_y, wind_z = (" << wind.x() << ", " << wind.y() << ", " << wind.z() << "): " << problem;
     return out.str();
   }
   return "";
@@ -96,7 +96,7 @@ void ClothNode::publishReconfigureRanges() {
   low.substeps = core::SceneOptions::kAutoSubsteps;  // 0: auto, as the scenes use it
   high.substeps = L::kMaxSubsteps;
   low.solver_tolerance = L::kMinSolverTolerance;
-  high.solver_tolerance = 1.0;
+  high.solver_tolerance = L::kMaxSolverTolerance;
   low.self_collision_thickness = 0.0;
   high.self_collision_thickness = L::kMaxSelfCollisionThickness_m;
   low.self_collision_friction = 0.0;

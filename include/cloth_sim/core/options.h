@@ -62,6 +62,7 @@ struct OptionLimits {
   /// Thickest self_collision_thickness, m (0 is its default: from the grid spacing).
   static constexpr double kMaxSelfCollisionThickness_m = 1.0;
   static constexpr double kMinSolverTolerance = 1e-14;  ///< below rounding the solve cannot converge
+  static constexpr double kMaxSolverTolerance = 1.0;    ///< a relative residual of 1: no iteration needed
   static constexpr int kMaxSolverIterations = 10000;
   static constexpr int kMaxThreads = 64;
   /// Longest text a file or parameter can set, characters (Linux's PATH_MAX): the scene name, the texture
@@ -83,6 +84,11 @@ struct OptionLimits {
 /// Empty when `value` is at most OptionLimits::kMaxTextChars long; else the problem, naming `field` and
 /// the length (not the text).
 std::string textLengthProblem(const std::string& field, const std::string& value);
+
+/// Empty when a wind velocity (m/s) may blow: finite, magnitude at most OptionLimits::kMaxWindSpeed_m_per_s.
+/// Else "magnitude M m/s: must be finite and at most 100 m/s": one rule for a scene's wind, ~wind, the
+/// reconfigure sliders and a state file's wind (each names its own source before it).
+std::string windVelocityProblem(const Eigen::Vector3d& wind_m_per_s);
 
 /// The value of the `substeps` key (scene files, parameters) that asks for SceneOptions::kAutoSubsteps.
 inline constexpr const char* kAutoSubstepsName = "auto";
