@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <set>
 #include <sstream>
 #include <string>
@@ -474,7 +475,10 @@ bool insidePolygon(const std::vector<Eigen::Vector2d>& polygon, const Eigen::Vec
     const Eigen::Vector2d& a = polygon[i];
     const Eigen::Vector2d& b = polygon[j];
     const Eigen::Vector2d edge = b - a;
-    const double t = std::clamp((point - a).dot(edge) / std::max(edge.squaredNorm(), 1e-300), 0.0, 1.0);
+    // A zero-length edge (a repeated corner, which validation refuses) divides by the smallest normal
+    // double instead of zero: its nearest point is then its one point.
+    const double t = std::clamp(
+        (point - a).dot(edge) / std::max(edge.squaredNorm(), std::numeric_limits<double>::min()), 0.0, 1.0);
     if ((a + t * edge - point).norm() <= tolerance) return true;
     if ((a.y() > point.y()) != (b.y() > point.y()) &&
         point.x() < (b.x() - a.x()) * (point.y() - a.y()) / (b.y() - a.y()) + a.x()) {

@@ -15,6 +15,11 @@ namespace {
 
 /// Squares of the built-in checker per side of the cloth.
 constexpr int kCheckerSquares = 8;
+/// Scales u and v in [0, 1] so that u = 1 falls in the last square rather than starting a ninth.
+constexpr double kCheckerInsideScale = 0.999;
+/// The checker's two colours (RGB in [0, 1]): a light sand and a dark red, apart in rviz's shading.
+constexpr float kCheckerLight[3] = {0.93f, 0.86f, 0.62f};
+constexpr float kCheckerDark[3] = {0.72f, 0.16f, 0.16f};
 
 /// Empty when `given` leaves the constants its material sets as the material sets them (a retune passes
 /// back what options() gave, material constants included); else which one it changed.
@@ -624,13 +629,12 @@ double Simulation::maxStructuralStrain() const {
 }
 
 Eigen::Matrix3Xf checkerColors(const Eigen::Matrix2Xd& uv) {
-  const Eigen::Vector3f light(0.93f, 0.86f, 0.62f);
-  const Eigen::Vector3f dark(0.72f, 0.16f, 0.16f);
+  const Eigen::Vector3f light(kCheckerLight[0], kCheckerLight[1], kCheckerLight[2]);
+  const Eigen::Vector3f dark(kCheckerDark[0], kCheckerDark[1], kCheckerDark[2]);
   Eigen::Matrix3Xf colors(3, uv.cols());
   for (Eigen::Index i = 0; i < uv.cols(); ++i) {
-    // 0.999 keeps u = 1 in the last square rather than starting a ninth.
-    const int square_u = static_cast<int>(uv(0, i) * 0.999 * kCheckerSquares);
-    const int square_v = static_cast<int>(uv(1, i) * 0.999 * kCheckerSquares);
+    const int square_u = static_cast<int>(uv(0, i) * kCheckerInsideScale * kCheckerSquares);
+    const int square_v = static_cast<int>(uv(1, i) * kCheckerInsideScale * kCheckerSquares);
     colors.col(i) = ((square_u + square_v) % 2 == 0) ? light : dark;
   }
   return colors;

@@ -132,12 +132,12 @@ bool ClothNode::start(std::string* error) {
   }
   mesh_schedule_ = std::make_unique<MeshSchedule>(mesh_rate_hz);
 
-  mesh_pub_ = pnh_.advertise<visualization_msgs::Marker>(Names::kMeshTopic, 2);
+  mesh_pub_ = pnh_.advertise<visualization_msgs::Marker>(Names::kMeshTopic, kMarkerQueue);
   state_pub_ = pnh_.advertise<cloth_sim::ClothState>(Names::kStateTopic, kStateQueue);
-  colliders_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>(Names::kCollidersTopic, 2);
+  colliders_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>(Names::kCollidersTopic, kMarkerQueue);
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(tf_buffer_);
   cameras_ = std::make_unique<DepthCameras>(pnh_, tf_buffer_, frame_id_, simulation_->options().cameras);
-  wind_sub_ = pnh_.subscribe(Names::kWindTopic, 10, &ClothNode::onWind, this);
+  wind_sub_ = pnh_.subscribe(Names::kWindTopic, kWindQueue, &ClothNode::onWind, this);
   ros::SubscribeOptions grasp_options = ros::SubscribeOptions::create<cloth_sim::Grasp>(
       Names::kGraspTopic, kGraspSubscriberQueue,
       [this](const cloth_sim::Grasp::ConstPtr& message) { onGraspReceived(message); }, ros::VoidConstPtr(),

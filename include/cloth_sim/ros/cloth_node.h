@@ -98,6 +98,10 @@ class ClothNode {
   /// frames it caught up on, then its own), one spare. Under /use_sim_time a /clock step of more frames
   /// sends more, back to back, and a subscriber keeps the newest of them.
   static constexpr std::uint32_t kStateQueue = kMaxCatchUpFrames + 1;
+  /// Markers roscpp holds per subscriber: a viewer only ever wants the newest drawing.
+  static constexpr std::uint32_t kMarkerQueue = 2;
+  /// ~wind messages held between two spins; each replaces the wind, so the last one held is in force.
+  static constexpr std::uint32_t kWindQueue = 10;
   /// ~grasp messages the subscriber holds for its receiving thread. That thread only files each one into
   /// GraspCommandQueue (microseconds), so this is reached only by a burst far beyond any hand's rate; the
   /// last command per id survives in the GraspCommandQueue whatever the spin thread is doing.
