@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -232,6 +233,58 @@ TEST(Grippers, AParticlePulledHarderThanMaxForceSlipsOutAndIsReported) {
     strong.advanceFrame();
     ASSERT_TRUE(strong.gripperWrenches().front().slipped.empty()) << "frame " << k;
   }
+}
+
+TEST(Grippers, AGraspOfAParticleAGripperHoldsHasNoEffectUntilTheGripperLetsGo) {
+  // The README: a grasp of a held particle is taken, and listed, but the particle moves with the gripper.
+  // The grasp's spring (500 N/m, 0.5 m: 250 N) must neither enter the wrench nor tear the cloth out of a
+  // 5 N grip; when the gripper lets go, it pulls again.
+  const auto hang = [](bool grasped) {
+    auto sim = std::make_unique<Simulation>(unpinnedHanging(10, 10));
+    GripperRequest request;
+    request.id = 1;
+    request.frame = "hand";
+    request.pose.position_m = sim->state().positions_m.col(4);
+    request.particles = topRow(0, 9);
+    request.max_force_N = 5.0;
+    std::vector<int> held;
+    std::string error;
+    EXPECT_TRUE(sim->attachGripper(request, &held, &error)) << error;
+    if (grasped) {
+      GraspRequest grasp;
+      grasp.id = 7;
+      grasp.particle = 0;
+      grasp.target_m = sim->state().positions_m.col(0) + Eigen::Vector3d(0.5, 0.0, 0.0);
+      grasp.stiffness_N_per_m = 500.0;
+      EXPECT_TRUE(sim->grab(grasp, &error)) << error;
+      EXPECT_EQ(sim->grasps().size(), 1u) << "the grasp is taken and listed";
+    }
+    for (int k = 0; k < 50; ++k) {
+      sim->advanceFrame();
+      EXPECT_TRUE(sim->gripperWrenches().at(0).slipped.empty()) << "frame " << k;
+    }
+    return sim;
+  };
+  const std::unique_ptr<Simulation> plain = hang(false);
+  const std::unique_ptr<Simulation> grasped = hang(true);
+  ASSERT_EQ(grasped->grippers().at(0).particles.size(), 10u) << "the cloth slipped out";
+  const GripperWrench& without = plain->gripperWrenches().at(0);
+  const GripperWrench& with = grasped->gripperWrenches().at(0);
+  EXPECT_EQ(with.force_N, without.force_N) << with.force_N.transpose() << " vs " << without.force_N.transpose();
+  EXPECT_EQ(with.torque_N_m, without.torque_N_m);
+  EXPECT_EQ(grasped->state().positions_m, plain->state().positions_m) << "the grasp moved the cloth";
+  // The weight, to 5 % (still swinging a little after a second):
+  const double weight_N = grasped->massPerParticle_kg().sum() * grasped->options().gravity_m_per_s2.norm();
+  EXPECT_NEAR(-with.force_N.z(), weight_N, 0.05 * weight_N);
+
+  // Let go: the grasp pulls particle 0 towards its target again.
+  ASSERT_TRUE(grasped->detachGripper(1));
+  const double x_before_m = grasped->state().positions_m(0, 0);
+  for (int k = 0; k < 5; ++k) grasped->advanceFrame();
+  ASSERT_TRUE(plain->detachGripper(1));
+  for (int k = 0; k < 5; ++k) plain->advanceFrame();
+  EXPECT_GT(grasped->state().positions_m(0, 0) - x_before_m, 0.05) << "the grasp does not act once let go";
+  EXPECT_LT(std::abs(plain->state().positions_m(0, 0) - x_before_m), 0.01);
 }
 
 TEST(Grippers, AFrameThatReappearsFarAwayIsCaughtUpWithoutTearingTheCloth) {

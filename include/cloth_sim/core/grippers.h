@@ -39,8 +39,9 @@ struct GripperWrench {
 
 /// The wrench the cloth exerts on `gripper` at its pose `pose`. A held particle i obeys
 ///   m_i a_i = F_i + R_i
-/// where F_i is every force the model puts on it (springs, gravity, air, wind, grasps) and R_i the
-/// constraint's reaction, the force the gripper applies. The cloth pushes back with -R_i = F_i - m_i a_i,
+/// where F_i is every force the model puts on it (springs, gravity, air, wind; a grasp of a held particle
+/// does not act, ClothForceModel::graspActs) and R_i the constraint's reaction, the force the gripper
+/// applies. The cloth pushes back with -R_i = F_i - m_i a_i,
 /// so the force on the gripper is the sum of F_i - m_i a_i over its particles, and the torque the sum of
 /// (x_i - o) x (F_i - m_i a_i). forces_N are F at the state positions_m (the end of the frame), and
 /// accelerations_m_per_s2 the held particles' accelerations over the last step (both world frame).
