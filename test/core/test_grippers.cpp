@@ -311,6 +311,52 @@ TEST(Grippers, AFrameThatReappearsFarAwayIsCaughtUpWithoutTearingTheCloth) {
   EXPECT_LT((centreOfMass(sim) - far.position_m).norm(), 1.5);
 }
 
+TEST(Grippers, AFrameThatReappearsTurnedIsCaughtUpWithNoHeldParticleFasterThanTheLimit) {
+  // The frame at the middle of the top row holds the whole row (levers up to 0.5 m) and reappears turned
+  // half round about z: taken in one frame, the row's ends would move 1 m, twice the limit, though the
+  // origin does not move at all.
+  Simulation sim(unpinnedHanging(10, 10));
+  GripperRequest request;
+  request.id = 2;
+  request.frame = "hand";
+  request.pose.position_m = 0.5 * (sim.state().positions_m.col(4) + sim.state().positions_m.col(5));
+  request.particles = topRow(0, 9);
+  std::vector<int> held;
+  std::string error;
+  ASSERT_TRUE(sim.attachGripper(request, &held, &error)) << error;
+  const double step_m = Simulation::kMaxGripperSpeed_m_per_s * sim.options().frameDuration_s();
+
+  // A change within the limit is taken whole, to the bit: 5 cm and 0.2 rad (0.1 m at the row's ends).
+  Pose near = request.pose;
+  near.position_m.y() += 0.05;
+  near.orientation = Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitZ());
+  ASSERT_TRUE(sim.moveGripper(2, near, &error)) << error;
+  EXPECT_EQ(sim.grippers().front().track.end.position_m, near.position_m);
+  EXPECT_EQ(sim.grippers().front().track.end.orientation.coeffs(), near.orientation.normalized().coeffs());
+  sim.advanceFrame();
+
+  Pose turned = near;
+  turned.orientation = Eigen::AngleAxisd(0.2 + kPi, Eigen::Vector3d::UnitZ());
+  int frames = 0;
+  double widest_m = 0.0;
+  for (; frames < 20; ++frames) {
+    const Eigen::Matrix3Xd before_m = sim.state().positions_m;
+    ASSERT_TRUE(sim.moveGripper(2, turned, &error)) << error;
+    const FrameReport report = sim.advanceFrame();
+    ASSERT_TRUE(report.stable) << "frame " << frames << ": " << report.reason;
+    ASSERT_TRUE(sim.state().positions_m.allFinite()) << "frame " << frames;
+    for (const int particle : held) {
+      const double moved_m = (sim.state().positions_m.col(particle) - before_m.col(particle)).norm();
+      widest_m = std::max(widest_m, moved_m);
+      EXPECT_LE(moved_m, step_m * (1 + 1e-9)) << "particle " << particle << " in frame " << frames;
+    }
+    if (sim.grippers().front().track.end.orientation.angularDistance(turned.orientation) < 1e-12) break;
+  }
+  EXPECT_LT(frames, 20) << "never caught up";
+  EXPECT_GT(frames, 1) << "caught up in one frame: the turn was not limited";
+  EXPECT_GT(widest_m, 0.9 * step_m) << "the catch-up crawled";
+}
+
 TEST(Grippers, EveryBadRequestIsRefusedWithItsReasonAndChangesNothing) {
   SceneOptions options = unpinnedHanging(8, 8);
   options.pins = {"top_left"};

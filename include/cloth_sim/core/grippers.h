@@ -25,8 +25,9 @@ Eigen::Matrix3Xd offsetsInFrame(const Eigen::Matrix3Xd& positions_m, const std::
 void holdStill(Gripper& gripper, double time_s, double frame_s);
 
 /// Starts the gripper's next frame at time_s: from where its track ended to `end`, over frame_s. The
-/// origin moves at most max_travel_m in one frame: a frame that reappears far away (tf lost it for a
-/// while) is followed over several frames rather than in one leap that would tear the cloth.
+/// origin and every held particle move at most max_travel_m in one frame: a frame that reappears far away
+/// or turned (tf lost it for a while) is followed over several frames rather than in one leap that would
+/// tear the cloth. A pose change within the limit is taken whole.
 void moveTrack(Gripper& gripper, const Pose& end, double time_s, double frame_s, double max_travel_m);
 
 /// What the cloth does to one gripper over the last frame.
