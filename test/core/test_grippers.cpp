@@ -383,6 +383,15 @@ TEST(Grippers, EveryBadRequestIsRefusedWithItsReasonAndChangesNothing) {
   refused(other, "already held by gripper 1 ('left')");
   other.particles = {0};
   refused(other, "particle 0 is already held by its pin");
+  // A grasp takes the pin off its hook: the grasp holds it now, and the refusal says so.
+  GraspRequest grasp;
+  grasp.id = 12;
+  grasp.particle = 0;
+  grasp.target_m = sim.state().positions_m.col(0);
+  ASSERT_TRUE(sim.grab(grasp, &error)) << error;
+  refused(other, "particle 0 is already held by grasp 12");
+  ASSERT_TRUE(sim.release(12));
+  refused(other, "particle 0 is already held by its pin");
   other.particles = {64};
   refused(other, "particle 64 is outside [0, 63]");
   other.particles = {-1};
