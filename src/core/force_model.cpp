@@ -101,6 +101,23 @@ void ClothForceModel::refreshConstraints() {
     if (!grid_.isActive(p)) inverse_mass_per_kg_[p] = 0.0;
   }
   kinematics_.maskConstrained(inverse_mass_per_kg_);
+  gripper_held_.clear();
+  for (const Gripper& gripper : inputs_.grippers) {
+    if (gripper.particles.empty()) continue;
+    gripper_held_.resize(static_cast<std::size_t>(grid_.particleCount()), 0);
+    for (const int particle : gripper.particles) gripper_held_[static_cast<std::size_t>(particle)] = 1;
+  }
+}
+
+const std::vector<Grasp>& ClothForceModel::actingGrasps() {
+  if (std::all_of(inputs_.grasps.begin(), inputs_.grasps.end(), [this](const Grasp& g) { return graspActs(g); })) {
+    return inputs_.grasps;
+  }
+  acting_grasps_.clear();
+  for (const Grasp& grasp : inputs_.grasps) {
+    if (graspActs(grasp)) acting_grasps_.push_back(grasp);
+  }
+  return acting_grasps_;
 }
 
 void ClothForceModel::constrainedPositions(double time_s, Eigen::Matrix3Xd& positions_m) const {
@@ -149,7 +166,7 @@ void ClothForceModel::forces(const Eigen::Matrix3Xd& positions_m, const Eigen::M
     accumulateWindForces(grid_.triangles, wind, windVelocityAt(wind, time_s), positions_m, velocities_m_per_s,
                          forces_N);
   }
-  if (!inputs_.grasps.empty()) accumulateGraspForces(inputs_.grasps, positions_m, velocities_m_per_s, forces_N);
+  if (!inputs_.grasps.empty()) accumulateGraspForces(actingGrasps(), positions_m, velocities_m_per_s, forces_N);
 }
 
 void ClothForceModel::linearize(const Eigen::Matrix3Xd& positions_m, const Eigen::Matrix3Xd&, double) {
@@ -199,7 +216,7 @@ void ClothForceModel::forceDifferential(const Eigen::Matrix3Xd& dx_m, const Eige
   df_N = result_.transpose();
   curvature_.addDifferential(dx_m, dv_m_per_s, 1.0, 1.0, df_N);
   df_N -= airDampingPerParticle_N_s_per_m(options_) * dv_m_per_s;
-  for (const Grasp& grasp : inputs_.grasps) {
+  for (const Grasp& grasp : actingGrasps()) {
     df_N.col(grasp.particle) -=
         grasp.stiffness_N_per_m * dx_m.col(grasp.particle) + grasp.damping_N_s_per_m * dv_m_per_s.col(grasp.particle);
   }
@@ -211,7 +228,7 @@ void ClothForceModel::stiffnessProduct(const Eigen::Matrix3Xd& dx_m, Eigen::Matr
   addSpringDifferential(dx_, 1.0, 0.0, result_);
   df_N = result_.transpose();
   curvature_.addDifferential(dx_m, dx_m, 1.0, 0.0, df_N);
-  for (const Grasp& grasp : inputs_.grasps) df_N.col(grasp.particle) -= grasp.stiffness_N_per_m * dx_m.col(grasp.particle);
+  for (const Grasp& grasp : actingGrasps()) df_N.col(grasp.particle) -= grasp.stiffness_N_per_m * dx_m.col(grasp.particle);
 }
 
 void ClothForceModel::systemProduct(double step_s, const Eigen::Matrix3Xd& w, Eigen::Matrix3Xd& out) {
@@ -224,7 +241,7 @@ void ClothForceModel::systemProduct(double step_s, const Eigen::Matrix3Xd& w, Ei
   out -= result_.transpose();
   // The curvature term's differential is -Q (dx + beta dv): with dx = h^2 w and dv = h w it adds.
   curvature_.addDifferential(w, w, -h * h, -h, out);
-  for (const Grasp& grasp : inputs_.grasps) {
+  for (const Grasp& grasp : actingGrasps()) {
     out.col(grasp.particle) += (h * h * grasp.stiffness_N_per_m + h * grasp.damping_N_s_per_m) * w.col(grasp.particle);
   }
 }
@@ -251,7 +268,7 @@ void ClothForceModel::systemDiagonalBlocks(double step_s, Eigen::Matrix<double, 
     const Eigen::VectorXd diagonal = curvature_.hessian().diagonal() * (h * h + h * curvature_.damping_s());
     blocks.topRows<3>().rowwise() += diagonal.transpose();
   }
-  for (const Grasp& grasp : inputs_.grasps) {
+  for (const Grasp& grasp : actingGrasps()) {
     blocks.col(grasp.particle).head<3>().array() += h * h * grasp.stiffness_N_per_m + h * grasp.damping_N_s_per_m;
   }
 }

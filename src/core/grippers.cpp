@@ -32,14 +32,27 @@ void holdStill(Gripper& gripper, double time_s, double frame_s) {
 
 void moveTrack(Gripper& gripper, const Pose& end, double time_s, double frame_s, double max_travel_m) {
   holdStill(gripper, time_s, frame_s);
+  const Pose& start = gripper.track.start;
   Pose target = end;
-  const Eigen::Vector3d travel_m = end.position_m - gripper.track.start.position_m;
+  const Eigen::Vector3d travel_m = end.position_m - start.position_m;
   const double distance_m = travel_m.norm();
-  if (distance_m > max_travel_m) {
-    // Catch up along the straight line, max_travel_m a frame; the orientation in the same share.
-    const double share = max_travel_m / distance_m;
-    target.position_m = gripper.track.start.position_m + share * travel_m;
-    target.orientation = gripper.track.start.orientation.slerp(share, end.orientation);
+  // How far the origin and each held particle (o + R offset) would go in this frame, and the lever of the
+  // farthest one.
+  const Eigen::Matrix3d turn = end.orientation.toRotationMatrix() - start.orientation.toRotationMatrix();
+  double farthest_m = distance_m;
+  double lever_m = 0.0;
+  for (Eigen::Index k = 0; k < gripper.offsets_m.cols(); ++k) {
+    farthest_m = std::max(farthest_m, (travel_m + turn * gripper.offsets_m.col(k)).norm());
+    lever_m = std::max(lever_m, gripper.offsets_m.col(k).norm());
+  }
+  if (farthest_m > max_travel_m) {
+    // Catch up along the straight line and the shorter turn, in the share of the pose change that keeps
+    // the origin and every held particle within max_travel_m: at share s a particle at lever r is at most
+    // s |travel| + r s angle away (the chord of its arc is shorter than the arc).
+    const double angle_rad = start.orientation.angularDistance(end.orientation);
+    const double share = std::min(1.0, max_travel_m / (distance_m + angle_rad * lever_m));
+    target.position_m = start.position_m + share * travel_m;
+    target.orientation = start.orientation.slerp(share, end.orientation);
   }
   gripper.track.end = target;
 }

@@ -616,6 +616,7 @@ EnergyReport Simulation::energies() const {
 double Simulation::totalEnergy_J(const EnergyReport& energies) const {
   double total_J = energies.kinetic_J + energies.potential_J;
   for (const Grasp& grasp : inputs_.grasps) {
+    if (!force_model_.graspActs(grasp)) continue;  // on a particle a gripper holds: no force, no energy
     // A hand is a spring to its target plus a constant force: both conservative while the hand stays.
     const Eigen::Vector3d position_m = state_.positions_m.col(grasp.particle);
     total_J += 0.5 * grasp.stiffness_N_per_m * (grasp.target_m - position_m).squaredNorm() -

@@ -139,7 +139,12 @@ bool Simulation::attachGripper(const GripperRequest& request, std::vector<int>* 
       return false;
     }
     if (std::binary_search(inputs_.pins.begin(), inputs_.pins.end(), particle)) {
-      *error = "particle " + std::to_string(particle) + " is already held by its pin";
+      // A grasp takes a pin off its hook: then the grasp, not the pin, holds it.
+      const auto grasp = std::find_if(inputs_.grasps.begin(), inputs_.grasps.end(),
+                                      [particle](const Grasp& g) { return g.particle == particle; });
+      *error = "particle " + std::to_string(particle) + " is already held by " +
+               (grasp == inputs_.grasps.end() ? std::string("its pin")
+                                              : "grasp " + std::to_string(grasp->id) + " (a pinned particle, off its pin)");
       return false;
     }
     if (const Gripper* other = inputs_.gripperHolding(particle)) {

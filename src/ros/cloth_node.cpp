@@ -44,6 +44,15 @@ constexpr const char* kDefaultScene = "drape";
 constexpr double kMeshEarlyFrames = 0.5;
 using core::kMillisecondsPerSecond;
 
+/// What a reset or a load let go, as ~reset answers it ("; released grasp ids 3, 7; detached gripper ids
+/// 1"; "" for nothing): their clients must grasp or attach again.
+std::string letGoText(const std::vector<core::Grasp>& grasps, const std::vector<core::Gripper>& grippers) {
+  const std::string grasp_ids = core::idList(grasps);
+  const std::string gripper_ids = core::idList(grippers);
+  return (grasp_ids.empty() ? "" : "; released grasp ids " + grasp_ids) +
+         (gripper_ids.empty() ? "" : "; detached gripper ids " + gripper_ids);
+}
+
 }  // namespace
 
 ClothNode::ClothNode(const ros::NodeHandle& node_handle, const ros::NodeHandle& private_handle)
@@ -563,8 +572,7 @@ void ClothNode::applyGrasp(const cloth_sim::Grasp::ConstPtr& message) {
 bool ClothNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
   cancelStep("~reset restarted the scene");
   // The grasps and grippers the reset lets go: their clients must grasp or attach again.
-  const std::string grasps = core::idList(simulation_->grasps());
-  const std::string grippers = core::idList(simulation_->grippers());
+  const std::string let_go = letGoText(simulation_->grasps(), simulation_->grippers());
   simulation_->reset();
   last_report_ = core::FrameReport();  // no frame since: the diagnostics read 0 substeps and iterations
   asleep_ = false;  // frame 0 is computed, not slept through
@@ -573,9 +581,7 @@ bool ClothNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response
   reanchor();
   publish(ros::Time::now());
   response.success = true;
-  response.message = "scene '" + simulation_->options().name + "' back at frame 0" +
-                     (grasps.empty() ? "" : "; released grasp ids " + grasps) +
-                     (grippers.empty() ? "" : "; detached gripper ids " + grippers);
+  response.message = "scene '" + simulation_->options().name + "' back at frame 0" + let_go;
   return true;
 }
 
@@ -599,6 +605,7 @@ bool ClothNode::onLoadScene(cloth_sim::LoadScene::Request& request, cloth_sim::L
   // All or nothing: the new scene is read, validated, built and textured completely before it replaces
   // the running one; any failure answers with the reason and the old scene carries on.
   std::string error = core::textLengthProblem("scene", request.scene);
+  const std::string let_go = letGoText(simulation_->grasps(), simulation_->grippers());  // all, if it loads
   std::unique_ptr<core::Simulation> simulation;
   try {
     if (error.empty()) simulation = buildSimulation(request.scene, nullptr, &error);  // the scene alone
@@ -614,7 +621,7 @@ bool ClothNode::onLoadScene(cloth_sim::LoadScene::Request& request, cloth_sim::L
   response.success = true;
   std::ostringstream message;
   message << "loaded scene '" << simulation_->options().name << "' (" << simulation_->grid().rows << "x"
-          << simulation_->grid().cols << ")";
+          << simulation_->grid().cols << ")" << let_go;
   response.message = message.str();
   ROS_INFO("cloth_node: %s", response.message.c_str());
   return true;
@@ -738,6 +745,8 @@ bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::L
     return refuse(error.rfind(named, 0) == 0 ? "its texture does not load (" + error.substr(named.size()) + ")"
                                              : "its texture does not load");
   }
+  const std::vector<core::Grasp> grasps_before = simulation_->grasps();
+  const std::vector<core::Gripper> grippers_before = simulation_->grippers();
   if (!simulation_->restore(snapshot, &error)) return refuse(error);
   grippers_->synchronize();  // the file's grippers follow their frames by name
   cancelStep("~load_state replaced the state");
@@ -752,7 +761,8 @@ bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::L
   publish(ros::Time::now());
   std::ostringstream message;
   message << "loaded frame " << simulation_->state().frame << " (t = " << simulation_->state().time_s << " s, "
-          << grid.rows << "x" << grid.cols << ", " << simulation_->grasps().size() << " grasps) from " << request.path;
+          << grid.rows << "x" << grid.cols << ", " << simulation_->grasps().size() << " grasps) from " << request.path
+          << letGoText(core::letGo(grasps_before, simulation_->grasps()), core::letGo(grippers_before, simulation_->grippers()));
   response.success = true;
   response.message = message.str();
   ROS_INFO("cloth_node: %s", response.message.c_str());

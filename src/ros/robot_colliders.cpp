@@ -1,14 +1,58 @@
 #include "cloth_sim/ros/robot_colliders.h"
 
+#include "cloth_sim/core/options.h"
 #include "cloth_sim/ros/ros_time.h"
 
+#include <tinyxml2.h>
 #include <urdf/model.h>
 
+#include <map>
 #include <set>
 #include <sstream>
 #include <utility>
 
 namespace cloth_sim {
+
+namespace {
+
+/// How many `<collision>` elements each `<link>` of the URDF's XML has (links without one left out).
+std::map<std::string, std::size_t> collisionElementsPerLink(const std::string& urdf_xml) {
+  std::map<std::string, std::size_t> counts;
+  tinyxml2::XMLDocument document;
+  if (document.Parse(urdf_xml.c_str()) != tinyxml2::XML_SUCCESS) return counts;
+  const tinyxml2::XMLElement* robot = document.FirstChildElement("robot");
+  if (robot == nullptr) return counts;
+  for (const tinyxml2::XMLElement* link = robot->FirstChildElement("link"); link != nullptr;
+       link = link->NextSiblingElement("link")) {
+    const char* name = link->Attribute("name");
+    std::size_t count = 0;
+    for (const tinyxml2::XMLElement* collision = link->FirstChildElement("collision"); collision != nullptr;
+         collision = collision->NextSiblingElement("collision")) {
+      ++count;
+    }
+    if (name != nullptr && count > 0) counts[name] += count;
+  }
+  return counts;
+}
+
+/// Why the collider of `link`'s collision `index` is out of the scenes' ranges, or "": the core's own checks
+/// of one frame collider, named by the link instead of an index into frame_colliders.
+std::string urdfColliderProblem(const core::FrameCollider& collider, const std::string& link, std::size_t index) {
+  core::SceneOptions options;
+  options.colliders.frames = {collider};
+  const std::string own = "frame_colliders[0]";
+  std::string problems;
+  for (const std::string& problem : core::validateSceneOptions(options)) {
+    if (problem.compare(0, own.size(), own) != 0) continue;  // only the collider's own fields
+    std::string field = problem.substr(own.size());
+    if (!field.empty() && field[0] == '.') field.erase(0, 1);
+    problems += (problems.empty() ? "" : "; ") + field;
+  }
+  if (problems.empty()) return "";
+  return "URDF link '" + link + "' collision " + std::to_string(index) + ": " + problems;
+}
+
+}  // namespace
 
 bool collidersFromUrdf(const std::string& urdf_xml, std::vector<core::FrameCollider>* colliders,
                        std::vector<std::string>* mesh_links, std::string* error) {
@@ -17,10 +61,33 @@ bool collidersFromUrdf(const std::string& urdf_xml, std::vector<core::FrameColli
     *error = "not a URDF the urdf library can read (see its error above)";
     return false;
   }
+  // urdfdom drops a <collision> it cannot read (a box with two sizes, a cylinder without a length, no
+  // <geometry>) with an ERROR line and reads on: a robot would then run with fewer links than it has.
+  std::string dropped;
+  for (const auto& [name, count] : collisionElementsPerLink(urdf_xml)) {
+    const auto link = model.links_.find(name);
+    std::size_t parsed = 0;
+    if (link != model.links_.end() && link->second) {
+      for (const urdf::CollisionSharedPtr& collision : link->second->collision_array) {
+        if (collision && collision->geometry) ++parsed;
+      }
+    }
+    if (parsed < count) {
+      dropped += (dropped.empty() ? "" : ", ") + ("'" + name + "' (" + std::to_string(count - parsed) + " of " +
+                                                   std::to_string(count) + ")");
+    }
+  }
+  if (!dropped.empty()) {
+    *error = "the urdf library could not read the <collision> elements of links " + dropped +
+             " (see its errors above): fix them, or the robot would collide without them";
+    return false;
+  }
   std::set<std::string> meshes;
+  std::string problems;
   for (const auto& [name, link] : model.links_) {
     if (!link) continue;
-    for (const urdf::CollisionSharedPtr& collision : link->collision_array) {
+    for (std::size_t index = 0; index < link->collision_array.size(); ++index) {
+      const urdf::CollisionSharedPtr& collision = link->collision_array[index];
       if (!collision || !collision->geometry) continue;
       core::FrameCollider collider;
       collider.frame = name;
@@ -52,8 +119,14 @@ bool collidersFromUrdf(const std::string& urdf_xml, std::vector<core::FrameColli
           meshes.insert(name);
           continue;
       }
+      const std::string problem = urdfColliderProblem(collider, name, index);
+      if (!problem.empty()) problems += (problems.empty() ? "" : "; ") + problem;
       colliders->push_back(collider);
     }
+  }
+  if (!problems.empty()) {
+    *error = problems;
+    return false;
   }
   mesh_links->assign(meshes.begin(), meshes.end());
   return true;

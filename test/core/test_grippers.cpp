@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -234,6 +235,58 @@ TEST(Grippers, AParticlePulledHarderThanMaxForceSlipsOutAndIsReported) {
   }
 }
 
+TEST(Grippers, AGraspOfAParticleAGripperHoldsHasNoEffectUntilTheGripperLetsGo) {
+  // The README: a grasp of a held particle is taken, and listed, but the particle moves with the gripper.
+  // The grasp's spring (500 N/m, 0.5 m: 250 N) must neither enter the wrench nor tear the cloth out of a
+  // 5 N grip; when the gripper lets go, it pulls again.
+  const auto hang = [](bool grasped) {
+    auto sim = std::make_unique<Simulation>(unpinnedHanging(10, 10));
+    GripperRequest request;
+    request.id = 1;
+    request.frame = "hand";
+    request.pose.position_m = sim->state().positions_m.col(4);
+    request.particles = topRow(0, 9);
+    request.max_force_N = 5.0;
+    std::vector<int> held;
+    std::string error;
+    EXPECT_TRUE(sim->attachGripper(request, &held, &error)) << error;
+    if (grasped) {
+      GraspRequest grasp;
+      grasp.id = 7;
+      grasp.particle = 0;
+      grasp.target_m = sim->state().positions_m.col(0) + Eigen::Vector3d(0.5, 0.0, 0.0);
+      grasp.stiffness_N_per_m = 500.0;
+      EXPECT_TRUE(sim->grab(grasp, &error)) << error;
+      EXPECT_EQ(sim->grasps().size(), 1u) << "the grasp is taken and listed";
+    }
+    for (int k = 0; k < 50; ++k) {
+      sim->advanceFrame();
+      EXPECT_TRUE(sim->gripperWrenches().at(0).slipped.empty()) << "frame " << k;
+    }
+    return sim;
+  };
+  const std::unique_ptr<Simulation> plain = hang(false);
+  const std::unique_ptr<Simulation> grasped = hang(true);
+  ASSERT_EQ(grasped->grippers().at(0).particles.size(), 10u) << "the cloth slipped out";
+  const GripperWrench& without = plain->gripperWrenches().at(0);
+  const GripperWrench& with = grasped->gripperWrenches().at(0);
+  EXPECT_EQ(with.force_N, without.force_N) << with.force_N.transpose() << " vs " << without.force_N.transpose();
+  EXPECT_EQ(with.torque_N_m, without.torque_N_m);
+  EXPECT_EQ(grasped->state().positions_m, plain->state().positions_m) << "the grasp moved the cloth";
+  // The weight, to 5 % (still swinging a little after a second):
+  const double weight_N = grasped->massPerParticle_kg().sum() * grasped->options().gravity_m_per_s2.norm();
+  EXPECT_NEAR(-with.force_N.z(), weight_N, 0.05 * weight_N);
+
+  // Let go: the grasp pulls particle 0 towards its target again.
+  ASSERT_TRUE(grasped->detachGripper(1));
+  const double x_before_m = grasped->state().positions_m(0, 0);
+  for (int k = 0; k < 5; ++k) grasped->advanceFrame();
+  ASSERT_TRUE(plain->detachGripper(1));
+  for (int k = 0; k < 5; ++k) plain->advanceFrame();
+  EXPECT_GT(grasped->state().positions_m(0, 0) - x_before_m, 0.05) << "the grasp does not act once let go";
+  EXPECT_LT(std::abs(plain->state().positions_m(0, 0) - x_before_m), 0.01);
+}
+
 TEST(Grippers, AFrameThatReappearsFarAwayIsCaughtUpWithoutTearingTheCloth) {
   Simulation sim(unpinnedHanging(10, 10));
   const GripperRequest request = holdAround(sim, 9, 4, 0.12);
@@ -256,6 +309,52 @@ TEST(Grippers, AFrameThatReappearsFarAwayIsCaughtUpWithoutTearingTheCloth) {
   EXPECT_LT((sim.grippers().front().track.end.position_m - far.position_m).norm(), 1e-9) << "never caught up";
   // The cloth came along: its centre of mass is near the gripper, not 20 m behind.
   EXPECT_LT((centreOfMass(sim) - far.position_m).norm(), 1.5);
+}
+
+TEST(Grippers, AFrameThatReappearsTurnedIsCaughtUpWithNoHeldParticleFasterThanTheLimit) {
+  // The frame at the middle of the top row holds the whole row (levers up to 0.5 m) and reappears turned
+  // half round about z: taken in one frame, the row's ends would move 1 m, twice the limit, though the
+  // origin does not move at all.
+  Simulation sim(unpinnedHanging(10, 10));
+  GripperRequest request;
+  request.id = 2;
+  request.frame = "hand";
+  request.pose.position_m = 0.5 * (sim.state().positions_m.col(4) + sim.state().positions_m.col(5));
+  request.particles = topRow(0, 9);
+  std::vector<int> held;
+  std::string error;
+  ASSERT_TRUE(sim.attachGripper(request, &held, &error)) << error;
+  const double step_m = Simulation::kMaxGripperSpeed_m_per_s * sim.options().frameDuration_s();
+
+  // A change within the limit is taken whole, to the bit: 5 cm and 0.2 rad (0.1 m at the row's ends).
+  Pose near = request.pose;
+  near.position_m.y() += 0.05;
+  near.orientation = Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitZ());
+  ASSERT_TRUE(sim.moveGripper(2, near, &error)) << error;
+  EXPECT_EQ(sim.grippers().front().track.end.position_m, near.position_m);
+  EXPECT_EQ(sim.grippers().front().track.end.orientation.coeffs(), near.orientation.normalized().coeffs());
+  sim.advanceFrame();
+
+  Pose turned = near;
+  turned.orientation = Eigen::AngleAxisd(0.2 + kPi, Eigen::Vector3d::UnitZ());
+  int frames = 0;
+  double widest_m = 0.0;
+  for (; frames < 20; ++frames) {
+    const Eigen::Matrix3Xd before_m = sim.state().positions_m;
+    ASSERT_TRUE(sim.moveGripper(2, turned, &error)) << error;
+    const FrameReport report = sim.advanceFrame();
+    ASSERT_TRUE(report.stable) << "frame " << frames << ": " << report.reason;
+    ASSERT_TRUE(sim.state().positions_m.allFinite()) << "frame " << frames;
+    for (const int particle : held) {
+      const double moved_m = (sim.state().positions_m.col(particle) - before_m.col(particle)).norm();
+      widest_m = std::max(widest_m, moved_m);
+      EXPECT_LE(moved_m, step_m * (1 + 1e-9)) << "particle " << particle << " in frame " << frames;
+    }
+    if (sim.grippers().front().track.end.orientation.angularDistance(turned.orientation) < 1e-12) break;
+  }
+  EXPECT_LT(frames, 20) << "never caught up";
+  EXPECT_GT(frames, 1) << "caught up in one frame: the turn was not limited";
+  EXPECT_GT(widest_m, 0.9 * step_m) << "the catch-up crawled";
 }
 
 TEST(Grippers, EveryBadRequestIsRefusedWithItsReasonAndChangesNothing) {
@@ -283,6 +382,15 @@ TEST(Grippers, EveryBadRequestIsRefusedWithItsReasonAndChangesNothing) {
   other.id = 2;
   refused(other, "already held by gripper 1 ('left')");
   other.particles = {0};
+  refused(other, "particle 0 is already held by its pin");
+  // A grasp takes the pin off its hook: the grasp holds it now, and the refusal says so.
+  GraspRequest grasp;
+  grasp.id = 12;
+  grasp.particle = 0;
+  grasp.target_m = sim.state().positions_m.col(0);
+  ASSERT_TRUE(sim.grab(grasp, &error)) << error;
+  refused(other, "particle 0 is already held by grasp 12");
+  ASSERT_TRUE(sim.release(12));
   refused(other, "particle 0 is already held by its pin");
   other.particles = {64};
   refused(other, "particle 64 is outside [0, 63]");

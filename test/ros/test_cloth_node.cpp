@@ -1790,6 +1790,44 @@ TEST(BadParams, ARobotDescriptionThatIsMissingOrNotAUrdfIsNamed) {
   expectRefused("bad_urdf_param_name", "'_robot_description:=a b'", {"~robot_description = 'a b'", "not a valid"});
 }
 
+TEST(BadParams, AUrdfCollisionTheUrdfLibraryDropsOrOneOutOfRangeIsNamedByItsLink) {
+  // urdfdom drops a <collision> it cannot read with an ERROR line and reads on: before, the node ran
+  // with fewer colliders than the robot has. Each URDF: a root link, a good link and the link 'bad'.
+  const auto urdf = [](const std::string& bad_collisions) {
+    return "<robot name='r'><link name='base'/>"
+           "<link name='good'><collision><geometry><sphere radius='0.05'/></geometry></collision></link>"
+           "<link name='bad'>" + bad_collisions + "</link>"
+           "<joint name='j1' type='fixed'><parent link='base'/><child link='good'/></joint>"
+           "<joint name='j2' type='fixed'><parent link='base'/><child link='bad'/></joint></robot>";
+  };
+  const std::string sphere = "<collision><geometry><sphere radius='0.05'/></geometry></collision>";
+  struct Dropped {
+    std::string node, collisions, named;
+  };
+  for (const Dropped& dropped : std::vector<Dropped>{
+           {"bad_urdf_box2", sphere + "<collision><geometry><box size='0.1 0.1'/></geometry></collision>", "'bad' (1 of 2)"},
+           {"bad_urdf_cylinder", "<collision><geometry><cylinder radius='0.1'/></geometry></collision>", "'bad' (1 of 1)"},
+           {"bad_urdf_no_geometry", "<collision><origin xyz='0 0 0.1'/></collision>", "'bad' (1 of 1)"}}) {
+    expectRefusedWithParameters(dropped.node,
+                                {{"robot_description", XmlRpc::XmlRpcValue(std::string("~urdf"))},
+                                 {"urdf", XmlRpc::XmlRpcValue(urdf(dropped.collisions))}},
+                                {"/" + dropped.node + "/urdf", "could not read the <collision> elements of links " + dropped.named});
+  }
+  // Read, but out of the colliders' ranges: named by link and collision, not by an index into frame_colliders.
+  expectRefusedWithParameters(
+      "bad_urdf_radius",
+      {{"robot_description", XmlRpc::XmlRpcValue(std::string("~urdf"))},
+       {"urdf", XmlRpc::XmlRpcValue(urdf(sphere + "<collision><geometry><sphere radius='0'/></geometry></collision>"))}},
+      {"URDF link 'bad' collision 1: radius = 0: must be in (0, 100]"});
+  // The control: the same robot with two good collisions on 'bad' runs.
+  ros::param::set("/good_urdf/robot_description", std::string("~urdf"));
+  ros::param::set("/good_urdf/urdf", urdf(sphere + sphere));
+  const ProcessResult result = runProcess("timeout 3 " + nodeBinary() + " __name:=good_urdf");
+  ros::param::del("/good_urdf");
+  EXPECT_EQ(result.exit_code, 124) << result.output;
+  EXPECT_NE(result.output.find("3 colliders from the URDF"), std::string::npos) << result.output;
+}
+
 TEST(BadParams, AMaterialWithItsOwnConstantsOrAnUnknownPresetIsNamed) {
   // Issue 17: the default scene (drape) is cotton; a mass or spring constant over it is refused by name.
   expectRefused("bad_material_mass", "_mass:=0.3 _bend_stiffness:=5",

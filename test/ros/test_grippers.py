@@ -3,7 +3,8 @@
 
 test/ros/grippers.test runs cloth_node on a 10 x 10, 0.5 kg cloth with no pins (scenes/held.yaml). This
 test publishes gripper frames in tf itself and checks, in order:
-- every refusal answers success=false naming the problem;
+- every refusal answers success=false naming the problem; ~reset, ~load_state and ~load_scene name the
+  grippers they let go;
 - statics: the cloth hanging still from one gripper pulls it with m g (1 %) and the torque of its centre
   of mass about the frame's origin; a turned frame reports the same vectors turned into it;
 - a frame moved and turned carries its particles rigidly (1 mm), and they keep their mutual distances
@@ -13,6 +14,8 @@ test publishes gripper frames in tf itself and checks, in order:
 - ~detach lets the cloth fall.
 """
 import math
+import os
+import tempfile
 import threading
 import time
 import unittest
@@ -21,7 +24,7 @@ import numpy as np
 import rospy
 import rostest
 from cloth_sim.msg import ClothState
-from cloth_sim.srv import Attach, AttachRequest, Detach
+from cloth_sim.srv import Attach, AttachRequest, Detach, LoadScene, LoadState, SaveState
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import TransformStamped, WrenchStamped
 from std_srvs.srv import SetBool, Trigger
@@ -35,6 +38,7 @@ WORLD = "world"
 TOP_ROW = list(range(COLS))
 PUBLISH_HZ = 50.0
 SPACING_M = 1.0 / (COLS - 1)
+SCENE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "scenes", "held.yaml")  # grippers.test's
 
 
 def rest_position(particle):
@@ -142,6 +146,9 @@ class Grippers(unittest.TestCase):
         cls.detach = rospy.ServiceProxy("/cloth_node/detach", Detach)
         cls.pause = rospy.ServiceProxy("/cloth_node/pause", SetBool)
         cls.reset = rospy.ServiceProxy("/cloth_node/reset", Trigger)
+        cls.save_state = rospy.ServiceProxy("/cloth_node/save_state", SaveState)
+        cls.load_state = rospy.ServiceProxy("/cloth_node/load_state", LoadState)
+        cls.load_scene = rospy.ServiceProxy("/cloth_node/load_scene", LoadScene)
         cls.state = Latest("/cloth_node/state", ClothState)
         cls.diagnostics = Latest("/diagnostics", DiagnosticArray)
         cls.first = cls.state.wait_for(lambda s: len(s.positions) == ROWS * COLS)
@@ -205,6 +212,22 @@ class Grippers(unittest.TestCase):
         self.assertTrue(reset.success)
         self.assertTrue(reset.message.endswith("back at frame 0; detached gripper ids 3"), reset.message)
         self.refused(self.detach(3), "no gripper 3")
+        # So do ~load_state (the file's grippers replace the running ones) and ~load_scene.
+        path = os.path.join(tempfile.mkdtemp(prefix="test_grippers_"), "nothing_held.state")
+        saved = self.save_state(path)
+        self.assertTrue(saved.success, saved.message)
+        attached = self.request(4, "refusals", particles=[5])
+        self.assertTrue(attached.success, attached.message)
+        loaded = self.load_state(path)
+        self.assertTrue(loaded.success, loaded.message)
+        self.assertTrue(loaded.message.endswith(path + "; detached gripper ids 4"), loaded.message)
+        self.refused(self.detach(4), "no gripper 4")
+        attached = self.request(6, "refusals", particles=[5])
+        self.assertTrue(attached.success, attached.message)
+        loaded = self.load_scene(SCENE)
+        self.assertTrue(loaded.success, loaded.message)
+        self.assertTrue(loaded.message.endswith("(10x10); detached gripper ids 6"), loaded.message)
+        self.refused(self.detach(6), "no gripper 6")
         self.frames.stop("refusals")
         self.frames.stop("far_away")
 

@@ -36,6 +36,12 @@ class ClothForceModel final : public Dynamics {
   /// Rebuilds the bodies from the options and inputs (Kinematics::setScene) and which particles are
   /// constrained: a pin is on its hook unless a grasp holds it, and a gripper holds its particles.
   void refreshConstraints();
+  /// False for a grasp of a particle a gripper holds (as of refreshConstraints): the particle moves with
+  /// the gripper, so the grasp's spring and force do not act on it, nor enter the gripper's wrench, until
+  /// the gripper lets go. The one home of this rule (forces, differentials, energy).
+  bool graspActs(const Grasp& grasp) const {
+    return gripper_held_.empty() || gripper_held_[static_cast<std::size_t>(grasp.particle)] == 0;
+  }
   /// Puts every held particle (hooked pins, gripped particles) where its body holds it at time_s, with the
   /// velocity of that point of the body.
   void enforceConstraints(double time_s, ClothState& state) const { kinematics_.enforce(time_s, state); }
@@ -93,6 +99,9 @@ class ClothForceModel final : public Dynamics {
   bool parallel() const;
   /// Adds the curvature term's off-diagonal blocks (h^2 + h beta) Q_ij to the system matrix.
   void addCurvatureBlocks(double step_s, GridBlockMatrix& matrix) const;
+  /// inputs_.grasps, less those on a particle a gripper holds (graspActs); the inputs' own vector when
+  /// every grasp acts.
+  const std::vector<Grasp>& actingGrasps();
   /// Adds the springs' differential for the change w in positions (times scale_x) and velocities (times
   /// scale_v) to out.
   void addSpringDifferential(const SoaField& w, double scale_x, double scale_v, SoaField& out);
@@ -105,12 +114,15 @@ class ClothForceModel final : public Dynamics {
   CurvatureBending curvature_;           ///< from options_, by refreshConstraints
   /// 0 on the particles kinematics_ holds (hooked pins, gripped particles) and outside an outline.
   Eigen::VectorXd inverse_mass_per_kg_;
+  /// Per particle, 1 where a gripper holds it (empty while no gripper holds any), by refreshConstraints.
+  std::vector<std::uint8_t> gripper_held_;
   std::array<double, kStencilFamilies.size()> rest_length_m_{};  ///< per family, from the rest grid
   /// Per family, with an outline: 1 at the first particle of each spring whose ends are both inside.
   std::array<std::vector<std::uint8_t>, kStencilFamilies.size()> present_;
 
   // Scratch, reused across calls (sized on first use).
   SoaField positions_, velocities_, result_, dx_;
+  std::vector<Grasp> acting_grasps_;  ///< actingGrasps' list when a grasp does not act
   Eigen::MatrixXd row_scratch_;  ///< one column per thread: a few grid rows of per-spring values
   Eigen::Matrix<double, Eigen::Dynamic, 6> block_sums_, spring_blocks_;
   Eigen::Matrix<double, 6, Eigen::Dynamic> diagonal_blocks_;

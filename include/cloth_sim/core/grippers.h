@@ -25,8 +25,9 @@ Eigen::Matrix3Xd offsetsInFrame(const Eigen::Matrix3Xd& positions_m, const std::
 void holdStill(Gripper& gripper, double time_s, double frame_s);
 
 /// Starts the gripper's next frame at time_s: from where its track ended to `end`, over frame_s. The
-/// origin moves at most max_travel_m in one frame: a frame that reappears far away (tf lost it for a
-/// while) is followed over several frames rather than in one leap that would tear the cloth.
+/// origin and every held particle move at most max_travel_m in one frame: a frame that reappears far away
+/// or turned (tf lost it for a while) is followed over several frames rather than in one leap that would
+/// tear the cloth. A pose change within the limit is taken whole.
 void moveTrack(Gripper& gripper, const Pose& end, double time_s, double frame_s, double max_travel_m);
 
 /// What the cloth does to one gripper over the last frame.
@@ -39,8 +40,9 @@ struct GripperWrench {
 
 /// The wrench the cloth exerts on `gripper` at its pose `pose`. A held particle i obeys
 ///   m_i a_i = F_i + R_i
-/// where F_i is every force the model puts on it (springs, gravity, air, wind, grasps) and R_i the
-/// constraint's reaction, the force the gripper applies. The cloth pushes back with -R_i = F_i - m_i a_i,
+/// where F_i is every force the model puts on it (springs, gravity, air, wind; a grasp of a held particle
+/// does not act, ClothForceModel::graspActs) and R_i the constraint's reaction, the force the gripper
+/// applies. The cloth pushes back with -R_i = F_i - m_i a_i,
 /// so the force on the gripper is the sum of F_i - m_i a_i over its particles, and the torque the sum of
 /// (x_i - o) x (F_i - m_i a_i). forces_N are F at the state positions_m (the end of the frame), and
 /// accelerations_m_per_s2 the held particles' accelerations over the last step (both world frame).

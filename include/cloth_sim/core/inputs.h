@@ -74,4 +74,15 @@ std::string idList(const std::vector<Held>& held) {
   return list;
 }
 
+/// The grasps or grippers of `before` whose id none of `after` has: those a change of the whole state
+/// (a state file loaded) let go.
+template <typename Held>
+std::vector<Held> letGo(const std::vector<Held>& before, const std::vector<Held>& after) {
+  std::vector<Held> gone;
+  for (const Held& h : before) {
+    if (std::none_of(after.begin(), after.end(), [&h](const Held& a) { return a.id == h.id; })) gone.push_back(h);
+  }
+  return gone;
+}
+
 }  // namespace cloth_sim::core

@@ -207,8 +207,8 @@ class Simulation {
 
   EnergyReport energies() const;
   /// Kinetic, gravity, spring and grasp energy (a held particle's spring to its hand and the hand's
-  /// constant force), J, from energies() already computed: what the guard holds a frame's energy budget
-  /// against.
+  /// constant force; not of a grasp on a particle a gripper holds, which does not act), J, from energies()
+  /// already computed: what the guard holds a frame's energy budget against.
   double totalEnergy_J(const EnergyReport& energies) const;
   double maxStructuralStrain() const;
   /// Substeps the last computed frame was computed with (with `auto`, what the guard chose; before the

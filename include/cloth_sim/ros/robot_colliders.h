@@ -19,7 +19,9 @@ namespace cloth_sim {
 /// element's origin: a sphere as a sphere, a box as a box, a cylinder as the capsule of the same radius and
 /// length (its axis is the element's z axis, as a URDF cylinder's is; the capsule reaches `radius` beyond
 /// each flat end). Links whose collision is a mesh are skipped and named in *mesh_links. False with *error
-/// if the text is not a URDF urdf::Model reads.
+/// if the text is not a URDF urdf::Model reads, if it read fewer collisions of a link than the XML has
+/// `<collision>` elements (urdfdom drops a malformed one and reads on; the links are named), or if a
+/// shape is out of the frame colliders' ranges ("URDF link 'arm' collision 0: radius = 0: ...").
 bool collidersFromUrdf(const std::string& urdf_xml, std::vector<core::FrameCollider>* colliders,
                        std::vector<std::string>* mesh_links, std::string* error);
 
