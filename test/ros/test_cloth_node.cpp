@@ -321,18 +321,28 @@ TEST_F(Wind, PushesTheClothDownwind) {
   expectPushedAlongY(wind);
 }
 
+namespace {
+
+/// Puts `child` in tf as world turned +90 degrees about z (its x axis along world's y), static; the
+/// broadcaster must outlive the test's use of the frame.
+void sendQuarterTurnAboutZ(tf2_ros::StaticTransformBroadcaster& broadcaster, const std::string& child) {
+  geometry_msgs::TransformStamped transform;
+  transform.header.stamp = ros::Time::now();
+  transform.header.frame_id = "world";
+  transform.child_frame_id = child;
+  transform.transform.rotation.z = std::sin(M_PI / 4.0);
+  transform.transform.rotation.w = std::cos(M_PI / 4.0);
+  broadcaster.sendTransform(transform);
+}
+
+}  // namespace
+
 TEST_F(Wind, WindInAnotherFrameIsRotatedIntoFrameId) {
   // wind_frame is world turned +90 deg about z: its x axis is world's y. A 5 m/s wind along wind_frame's
   // x must push the cloth along world +y; unrotated it would blow along the cloth's plane (no push),
   // rotated the wrong way it would push towards -y.
   tf2_ros::StaticTransformBroadcaster broadcaster;
-  geometry_msgs::TransformStamped transform;
-  transform.header.stamp = ros::Time::now();
-  transform.header.frame_id = "world";
-  transform.child_frame_id = "wind_frame";
-  transform.transform.rotation.z = std::sin(M_PI / 4.0);
-  transform.transform.rotation.w = std::cos(M_PI / 4.0);
-  broadcaster.sendTransform(transform);
+  sendQuarterTurnAboutZ(broadcaster, "wind_frame");
 
   ASSERT_NO_FATAL_FAILURE(freshScene(false));
   geometry_msgs::Vector3Stamped wind;
@@ -433,13 +443,7 @@ TEST_F(NodeTest, GraspForceInAnotherFrameIsRotatedIntoFrameId) {
   // must push the held corner along world +y, out of the hanging cloth's plane (y = 0); unrotated it would
   // push along world x, in the plane (y stays 0), and rotated the wrong way towards -y.
   tf2_ros::StaticTransformBroadcaster broadcaster;
-  geometry_msgs::TransformStamped transform;
-  transform.header.stamp = ros::Time::now();
-  transform.header.frame_id = "world";
-  transform.child_frame_id = "grasp_frame";
-  transform.transform.rotation.z = std::sin(M_PI / 4.0);
-  transform.transform.rotation.w = std::cos(M_PI / 4.0);
-  broadcaster.sendTransform(transform);
+  sendQuarterTurnAboutZ(broadcaster, "grasp_frame");
 
   ClothState::ConstPtr frame0;
   ASSERT_NO_FATAL_FAILURE(freshScene(false, &frame0));
