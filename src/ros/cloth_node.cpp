@@ -300,6 +300,7 @@ void ClothNode::install(std::unique_ptr<core::Simulation> simulation) {
   cancelStep("the scene was replaced");
   simulation_ = std::move(simulation);
   if (grippers_) grippers_->synchronize();  // a new scene holds nothing
+  if (mouse_) mouse_->endDrag();  // nor the mouse: its drag's grasp went with the old scene
   step_cost_ms_ = 0.0;  // the old scene's cost says nothing about this one's
   timer_.setPeriod(frame_period);
   last_report_ = core::FrameReport();
@@ -370,7 +371,10 @@ bool ClothNode::advanceFrames(int frames, bool publish_between) {
     // iterations, contacts) of the last frame that was computed, whose state the cloth still is.
     if (!report.asleep) last_report_ = report;
     if (gripped) {
-      if (report.scene_reset) grippers_->synchronize();  // a recovery's reset let every gripper go
+      if (report.scene_reset) {
+        grippers_->synchronize();  // a recovery's reset let every gripper go
+        if (mouse_) mouse_->endDrag();  // and the mouse's grasp
+      }
       grippers_->afterFrame(frameTime(simulation_->state().frame));
     }
     step_cost_ms_ =
@@ -577,6 +581,7 @@ bool ClothNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response
   last_report_ = core::FrameReport();  // no frame since: the diagnostics read 0 substeps and iterations
   asleep_ = false;  // frame 0 is computed, not slept through
   grippers_->synchronize();  // a reset lets every gripper go
+  if (mouse_) mouse_->endDrag();  // and the mouse's grasp: the rest of its drag grabs nothing
   forgetPublished();  // the cloth back at its start goes out whatever the clock reads
   reanchor();
   publish(ros::Time::now());
@@ -749,6 +754,7 @@ bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::L
   const std::vector<core::Gripper> grippers_before = simulation_->grippers();
   if (!simulation_->restore(snapshot, &error)) return refuse(error);
   grippers_->synchronize();  // the file's grippers follow their frames by name
+  if (mouse_) mouse_->endDrag();  // a drag's grasp is the file's now, or gone
   cancelStep("~load_state replaced the state");
   if (new_texture) simulation_->setVertexColors(colors);
   timer_.setPeriod(ros::Duration(simulation_->options().frameDuration_s()));

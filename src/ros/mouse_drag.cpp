@@ -53,6 +53,11 @@ void MouseDrag::update(const core::Simulation& simulation, const std::string& fr
   server_->applyChanges();
 }
 
+void MouseDrag::endDrag() {
+  dragging_ = false;
+  last_shape_ = ros::Time();
+}
+
 cloth_sim::Grasp MouseDrag::graspMessage(const std_msgs::Header& header, std::uint8_t action) const {
   cloth_sim::Grasp grasp;
   grasp.header = header;

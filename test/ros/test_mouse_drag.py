@@ -16,6 +16,7 @@ import rospy
 import rostest
 from cloth_sim.msg import ClothState
 from geometry_msgs.msg import Point, TransformStamped
+from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import InteractiveMarkerFeedback, InteractiveMarkerInit
 
@@ -138,6 +139,27 @@ class MouseDrag(unittest.TestCase):
         last = self.states.latest.positions[CORNER]
         self.assertIsNotNone(followed, "the clicked corner stayed %.3f m from the mouse's target"
                              % distance(last, target))
+
+    def test_a_reset_ends_the_drag_and_its_later_updates_grab_nothing(self):
+        # An audit's: ~reset released the mouse's grasp (id 4294967295), and the drag's next pose update
+        # grabbed the corner again. The drag follows first, so the test proves the drag was live.
+        corner = self.free_corner()
+        clicked = Point(corner.x + 0.01, corner.y, corner.z + 0.01)
+        target = Point(clicked.x + DRAG[0], clicked.y + DRAG[1], clicked.z + DRAG[2])
+        self.feedback.publish(self.feedback_message(InteractiveMarkerFeedback.MOUSE_DOWN, mouse_point=clicked))
+        drag = self.feedback_message(InteractiveMarkerFeedback.POSE_UPDATE, marker_position=DRAG)
+        followed = self.states.wait_for(lambda s: distance(s.positions[CORNER], target) < TOLERANCE_M,
+                                        keep_doing=lambda: self.feedback.publish(drag))
+        self.assertIsNotNone(followed, "the corner never followed the drag: the test would prove nothing")
+        rospy.wait_for_service("/cloth_node/reset", timeout=DEADLINE_S)
+        answer = rospy.ServiceProxy("/cloth_node/reset", Trigger)()
+        self.assertTrue(answer.success, answer.message)
+        self.assertIn("released grasp ids 4294967295", answer.message)
+        # The same wait in which the corner follows a live drag.
+        again = self.states.wait_for(lambda s: distance(s.positions[CORNER], target) < TOLERANCE_M,
+                                     deadline_s=NOT_FOLLOWED_S, keep_doing=lambda: self.feedback.publish(drag))
+        self.feedback.publish(self.feedback_message(InteractiveMarkerFeedback.MOUSE_UP, marker_position=DRAG))
+        self.assertIsNone(again, "after ~reset the drag's updates grabbed the corner again")
 
     def test_click_drag_and_let_go_moves_the_clicked_particle(self):
         deadline = time.monotonic() + DEADLINE_S

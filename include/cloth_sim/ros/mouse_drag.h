@@ -41,6 +41,9 @@ class MouseDrag {
 
   /// Redraws the marker as the cloth stands (at most every kShapeRefreshPeriod_s, never while dragging).
   void update(const core::Simulation& simulation, const std::string& frame_id, const ros::Time& now);
+  /// A reset or a load let the drag's grasp go: the rest of the drag (its pose updates and mouse-up) grabs
+  /// and releases nothing, until the next mouse-down; the marker is redrawn over the cloth as it stands.
+  void endDrag();
 
  private:
   void onFeedback(const visualization_msgs::InteractiveMarkerFeedbackConstPtr& feedback);
