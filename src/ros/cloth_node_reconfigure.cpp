@@ -4,10 +4,29 @@
 #include "cloth_sim/ros/cloth_node.h"
 
 #include <cmath>
+#include <cstddef>
+#include <iterator>
 #include <sstream>
 #include <string>
 
 namespace cloth_sim {
+
+namespace {
+
+/// Each spring kind's two sliders: the one place the .cfg's field names meet SceneOptions::springs.
+struct SpringSliders {
+  core::SpringKind kind;
+  double cloth_sim::ClothConfig::*stiffness_N_per_m;
+  double cloth_sim::ClothConfig::*damping_N_s_per_m;
+};
+constexpr SpringSliders kSpringSliders[] = {
+    {core::SpringKind::kStructural, &cloth_sim::ClothConfig::structural_stiffness,
+     &cloth_sim::ClothConfig::structural_damping},
+    {core::SpringKind::kShear, &cloth_sim::ClothConfig::shear_stiffness, &cloth_sim::ClothConfig::shear_damping},
+    {core::SpringKind::kBend, &cloth_sim::ClothConfig::bend_stiffness, &cloth_sim::ClothConfig::bend_damping}};
+static_assert(std::size(kSpringSliders) == core::kSpringKindCount, "a pair of sliders for every spring kind");
+
+}  // namespace
 
 void ClothNode::onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t) {
   // The .cfg gives no ranges, so dynamic_reconfigure's server clamps nothing (it clamped -5 to 0 and inf
@@ -21,12 +40,10 @@ void ClothNode::onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t) {
     return;
   }
   core::SceneOptions options = simulation_->options();
-  const double stiffness[core::kSpringKindCount] = {config.structural_stiffness, config.shear_stiffness,
-                                              config.bend_stiffness};
-  const double damping[core::kSpringKindCount] = {config.structural_damping, config.shear_damping, config.bend_damping};
-  for (int k = 0; k < core::kSpringKindCount; ++k) {
-    options.springs[k].stiffness_N_per_m = stiffness[k];
-    options.springs[k].damping_N_s_per_m = damping[k];
+  for (const SpringSliders& sliders : kSpringSliders) {
+    core::SpringOptions& spring = options.springs[static_cast<std::size_t>(sliders.kind)];
+    spring.stiffness_N_per_m = config.*sliders.stiffness_N_per_m;
+    spring.damping_N_s_per_m = config.*sliders.damping_N_s_per_m;
   }
   options.air_damping_N_s_per_m = config.air_damping;
   // The wind sliders count only when they moved: comparing them with the wind in force would undo every
@@ -110,12 +127,11 @@ void ClothNode::publishReconfigureRanges() {
 void ClothNode::fillConfig(cloth_sim::ClothConfig* config) const {
   const core::SceneOptions& o = simulation_->options();
   cloth_sim::ClothConfig& c = *config;
-  c.structural_stiffness = o.springs[0].stiffness_N_per_m;
-  c.structural_damping = o.springs[0].damping_N_s_per_m;
-  c.shear_stiffness = o.springs[1].stiffness_N_per_m;
-  c.shear_damping = o.springs[1].damping_N_s_per_m;
-  c.bend_stiffness = o.springs[2].stiffness_N_per_m;
-  c.bend_damping = o.springs[2].damping_N_s_per_m;
+  for (const SpringSliders& sliders : kSpringSliders) {
+    const core::SpringOptions& spring = o.springs[static_cast<std::size_t>(sliders.kind)];
+    c.*sliders.stiffness_N_per_m = spring.stiffness_N_per_m;
+    c.*sliders.damping_N_s_per_m = spring.damping_N_s_per_m;
+  }
   c.air_damping = o.air_damping_N_s_per_m;
   const Eigen::Vector3d& wind = simulation_->inputs().wind_m_per_s;
   c.wind_x = wind.x();
