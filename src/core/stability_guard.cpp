@@ -94,6 +94,8 @@ StiffnessBound estimateStiffnessBound(const SceneOptions& options, const ClothGr
   stiffness_sum *= 2.0;
   damping_sum *= 2.0;
   for (const Grasp& grasp : inputs.grasps) {  // a grasp is a spring to a fixed target: diagonal only
+    // A grasp of a particle a gripper holds does not act (ClothForceModel::graspActs): no stiffness either.
+    if (inputs.gripperHolding(grasp.particle) != nullptr) continue;
     stiffness_sum[grasp.particle] += grasp.stiffness_N_per_m;
     damping_sum[grasp.particle] += grasp.damping_N_s_per_m;
   }
@@ -215,6 +217,7 @@ FrameEnvelope frameEnvelope(const EnvelopeInputs& scene) {
   // its fastest input, and the motion and stretch the cloth already has.
   double grasp_energy_J = 0.0;  // what the hands hold: their springs' energy and their forces over the extent
   for (const Grasp& grasp : scene.inputs.grasps) {
+    if (scene.inputs.gripperHolding(grasp.particle) != nullptr) continue;  // does not act (graspActs)
     grasp_energy_J += 0.5 * grasp.stiffness_N_per_m * (grasp.target_m - state.positions_m.col(grasp.particle)).squaredNorm() +
                       grasp.extra_force_N.norm() * extent_m;
   }
@@ -301,6 +304,7 @@ FrameEnvelope frameEnvelope(const EnvelopeInputs& scene) {
   // The largest force one structural spring can be made to carry: the whole weight, every hand, the wind.
   double largest_force_N = total_mass_kg * gravity_m_per_s2 + wind_force_N;
   for (const Grasp& grasp : scene.inputs.grasps) {
+    if (scene.inputs.gripperHolding(grasp.particle) != nullptr) continue;  // does not act (graspActs)
     largest_force_N += grasp.stiffness_N_per_m * (grasp.target_m - state.positions_m.col(grasp.particle)).norm() +
                        grasp.extra_force_N.norm();
   }

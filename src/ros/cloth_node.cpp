@@ -370,11 +370,9 @@ bool ClothNode::advanceFrames(int frames, bool publish_between) {
     // A frame the cloth slept through computed nothing: the diagnostics keep the figures (substeps,
     // iterations, contacts) of the last frame that was computed, whose state the cloth still is.
     if (!report.asleep) last_report_ = report;
+    if (report.scene_reset && mouse_) mouse_->endDrag();  // a recovery's reset let the mouse's grasp go
     if (gripped) {
-      if (report.scene_reset) {
-        grippers_->synchronize();  // a recovery's reset let every gripper go
-        if (mouse_) mouse_->endDrag();  // and the mouse's grasp
-      }
+      if (report.scene_reset) grippers_->synchronize();  // and every gripper
       grippers_->afterFrame(frameTime(simulation_->state().frame));
     }
     step_cost_ms_ =
@@ -575,6 +573,9 @@ void ClothNode::applyGrasp(const cloth_sim::Grasp::ConstPtr& message) {
 
 bool ClothNode::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& response) {
   cancelStep("~reset restarted the scene");
+  // ~grasp and mouse commands received before the request apply before it (a drag's update waiting in the
+  // queue would otherwise grab again after the reset ended the drag).
+  applyPendingGrasps();
   // The grasps and grippers the reset lets go: their clients must grasp or attach again.
   const std::string let_go = letGoText(simulation_->grasps(), simulation_->grippers());
   simulation_->reset();
@@ -607,6 +608,7 @@ bool ClothNode::onPause(std_srvs::SetBool::Request& request, std_srvs::SetBool::
 }
 
 bool ClothNode::onLoadScene(cloth_sim::LoadScene::Request& request, cloth_sim::LoadScene::Response& response) {
+  applyPendingGrasps();  // commands received before the request apply to the scene they were sent to
   // All or nothing: the new scene is read, validated, built and textured completely before it replaces
   // the running one; any failure answers with the reason and the old scene carries on.
   std::string error = core::textLengthProblem("scene", request.scene);
@@ -727,6 +729,7 @@ bool ClothNode::onSaveState(cloth_sim::SaveState::Request& request, cloth_sim::S
 }
 
 bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::LoadState::Response& response) {
+  applyPendingGrasps();  // commands received before the request apply to the cloth they were sent to
   // Messages name the path and numbers only: never text from the file (any ROS peer may ask).
   const auto refuse = [&response](const std::string& reason) {
     response.success = false;

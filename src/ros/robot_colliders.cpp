@@ -79,7 +79,8 @@ bool collidersFromUrdf(const std::string& urdf_xml, std::vector<core::FrameColli
   }
   if (!dropped.empty()) {
     *error = "the urdf library could not read the <collision> elements of links " + dropped +
-             " (see its errors above): fix them, or the robot would collide without them";
+             " (see its errors above: a bad <collision>, or an <inertial> or <visual> before it, which ends "
+             "the link's parsing): fix them, or the robot would collide without them";
     return false;
   }
   std::set<std::string> meshes;

@@ -38,7 +38,8 @@ class ClothForceModel final : public Dynamics {
   void refreshConstraints();
   /// False for a grasp of a particle a gripper holds (as of refreshConstraints): the particle moves with
   /// the gripper, so the grasp's spring and force do not act on it, nor enter the gripper's wrench, until
-  /// the gripper lets go. The one home of this rule (forces, differentials, energy).
+  /// the gripper lets go. The force model's copy of the rule (forces, differentials, energy), cached; the
+  /// stability guard asks ClothInputs::gripperHolding, the same rule, for its bounds.
   bool graspActs(const Grasp& grasp) const {
     return gripper_held_.empty() || gripper_held_[static_cast<std::size_t>(grasp.particle)] == 0;
   }
