@@ -235,6 +235,20 @@ TEST(Grippers, AParticlePulledHarderThanMaxForceSlipsOutAndIsReported) {
   }
 }
 
+/// Gripper 1 on frame "hand" at particle 4 holding the top row of a 10-wide cloth, letting go past
+/// max_force_N (0: never).
+void attachTopRow(Simulation& sim, double max_force_N) {
+  GripperRequest request;
+  request.id = 1;
+  request.frame = "hand";
+  request.pose.position_m = sim.state().positions_m.col(4);
+  request.particles = topRow(0, 9);
+  request.max_force_N = max_force_N;
+  std::vector<int> held;
+  std::string error;
+  EXPECT_TRUE(sim.attachGripper(request, &held, &error)) << error;
+}
+
 TEST(Grippers, AGraspOfAParticleAGripperHoldsCostsAnExplicitIntegratorNoSubsteps) {
   // A review's: the forces left such a grasp out, but the stability guard still bounded its 1e7 N/m spring,
   // so symplectic Euler took 22x the substeps (and another trajectory). Now the same bits as without it.
@@ -243,14 +257,8 @@ TEST(Grippers, AGraspOfAParticleAGripperHoldsCostsAnExplicitIntegratorNoSubsteps
     options.integrator = IntegratorKind::kSymplecticEuler;
     options.substeps = SceneOptions::kAutoSubsteps;
     auto sim = std::make_unique<Simulation>(options);
-    GripperRequest request;
-    request.id = 1;
-    request.frame = "hand";
-    request.pose.position_m = sim->state().positions_m.col(4);
-    request.particles = topRow(0, 9);
-    std::vector<int> held;
+    attachTopRow(*sim, 0.0);
     std::string error;
-    EXPECT_TRUE(sim->attachGripper(request, &held, &error)) << error;
     if (grasped) {
       GraspRequest grasp;
       grasp.id = 7;
@@ -275,15 +283,8 @@ TEST(Grippers, AGraspOfAParticleAGripperHoldsHasNoEffectUntilTheGripperLetsGo) {
   // 5 N grip; when the gripper lets go, it pulls again.
   const auto hang = [](bool grasped) {
     auto sim = std::make_unique<Simulation>(unpinnedHanging(10, 10));
-    GripperRequest request;
-    request.id = 1;
-    request.frame = "hand";
-    request.pose.position_m = sim->state().positions_m.col(4);
-    request.particles = topRow(0, 9);
-    request.max_force_N = 5.0;
-    std::vector<int> held;
+    attachTopRow(*sim, 5.0);
     std::string error;
-    EXPECT_TRUE(sim->attachGripper(request, &held, &error)) << error;
     if (grasped) {
       GraspRequest grasp;
       grasp.id = 7;
