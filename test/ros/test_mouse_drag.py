@@ -155,6 +155,10 @@ class MouseDrag(unittest.TestCase):
         answer = rospy.ServiceProxy("/cloth_node/reset", Trigger)()
         self.assertTrue(answer.success, answer.message)
         self.assertIn("released grasp ids 4294967295", answer.message)
+        # The states from before the reset may still be arriving (the corner at the target): wait for the
+        # reset's own first, so that the check below reads only the cloth after it.
+        self.assertIsNotNone(self.states.wait_for(lambda s: s.frame < followed.frame),
+                             "no state from after the reset")
         # The same wait in which the corner follows a live drag.
         again = self.states.wait_for(lambda s: distance(s.positions[CORNER], target) < TOLERANCE_M,
                                      deadline_s=NOT_FOLLOWED_S, keep_doing=lambda: self.feedback.publish(drag))
