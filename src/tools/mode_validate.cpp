@@ -142,11 +142,11 @@ int drape(const ValidateOptions& options) {
   core::SceneOptions scene;
   std::vector<std::string> errors;
   std::vector<SceneOverride> overrides{{"--material", "material", options.material},
-                                             {"--bend-model", "bend_model", core::bendModelName(options.bend_model)},
-                                             {"--compression-model", "compression_model",
-                                              core::compressionModelName(options.compression_model)},
-                                             {"--side", "rows", std::to_string(options.side)},
-                                             {"--side", "cols", std::to_string(options.side)}};
+                                       {"--bend-model", "bend_model", core::bendModelName(options.bend_model)},
+                                       {"--compression-model", "compression_model",
+                                        core::compressionModelName(options.compression_model)},
+                                       {"--side", "rows", std::to_string(options.side)},
+                                       {"--side", "cols", std::to_string(options.side)}};
   overrides.insert(overrides.end(), options.settings.begin(), options.settings.end());
   if (loadSceneWithOverrides("drape", options.scenes_dir, overrides, &scene, &errors) && validateInto(scene, &errors) &&
       scene.pin_positions_m.empty()) {
