@@ -11,7 +11,8 @@ Runs (each a cloth_bench command printed in the page, so every figure can be rep
   hanging     a 1 m sheet hung by its top edge at 10, 20 and 40 per side: top strain against rho g H / E;
   cusick      BS 5058's drape test (a 30 cm disc on an 18 cm support) for every preset at 31 and 61 per side:
               drape coefficient and folds.
-The drape at 120 and 160 per side (cotton) takes most of the time (about 25 minutes in all on 2 cores).
+The drape at 120 and 160 per side (cotton) takes most of the time (about 35 minutes in all on 2 cores, with
+the buckling drape lowered 0.5 s faster and slower on every grid).
 Raw JSON lines go to .build/validate/ (--reuse: read those instead of running again); pictures to
 doc/images/validation_*.png (matplotlib). --quick: the small grids only (a check of the script, not the page):
 its page and pictures go to .build/validate-quick/ (VALIDATION.md, images/), never to doc/.
@@ -34,6 +35,9 @@ DRAPE_SPRING_SIDE = 40
 DRAPE_CONVERGENCE_PRESET = "cotton"
 DRAPE_CONVERGENCE_SIDES = (120, 160)
 DRAPE_SECONDS = 20
+# How far the buckling drape's sag moves on one grid when its corners are lowered this much faster or
+# slower than the scene's own pin_travel_time (s): the measure's own scatter, beside the grids' spread.
+DRAPE_LOWERING_NUDGES_S = (-0.5, 0.5)
 HANGING_SIDES = (10, 20, 40)
 CUSICK_SIDES = (31, 61)
 CUSICK_SECONDS = 8
@@ -175,6 +179,64 @@ def plot_cusick(results, presets, path):
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
+
+
+def scatter_lines(args, presets, drape_sides, buckled, raw_dir, emit):
+    """The buckling drape lowered a little faster and slower on every grid: one grid's own scatter of the sag."""
+    own_s = scene_value("drape", "pin_travel_time")
+    travels = sorted([own_s] + [own_s + d for d in DRAPE_LOWERING_NUDGES_S])
+    sags = {}
+    for preset in presets:
+        for side in drape_sides:
+            for travel in travels:
+                if travel == own_s:
+                    sags[(preset, side, travel)] = buckled[(preset, side)]["sag_m"]
+                    continue
+                r, _ = run(args.bench, ["--validate", "drape", "--material", preset, "--side", str(side), "--seconds",
+                                        str(DRAPE_SECONDS), "--compression-model", "buckling", "--set",
+                                        "pin_travel_time=%g" % travel], raw_dir, args.reuse)
+                sags[(preset, side, travel)] = r["sag_m"]
+    emit("**How much of that spread is the grid.** The same buckling drape with its corners lowered over %s s"
+         % " / ".join("%g" % t for t in travels))
+    emit("(the scene's own %g s in the middle): the sag on each grid, how far it moves on that grid, and the" % own_s)
+    emit("spread over the grids for each lowering and for the mean of the three.")
+    emit("")
+    emit("| preset | side | %s | spread on this grid |" % " | ".join("lowered in %g s" % t for t in travels))
+    emit("|---|---|%s---|" % ("---|" * len(travels)))
+    within = {}
+    for preset in presets:
+        for side in drape_sides:
+            values = [sags[(preset, side, t)] for t in travels]
+            within[(preset, side)] = spread(values)
+            emit("| %s | %d | %s | %.1f %% |" % (preset, side, " | ".join("%.1f cm" % (100 * v) for v in values),
+                                                100 * within[(preset, side)]))
+    emit("")
+    across = {}
+    for preset in presets:
+        per_travel = [spread([sags[(preset, s, t)] for s in drape_sides]) for t in travels]
+        means = [sum(sags[(preset, s, t)] for t in travels) / len(travels) for s in drape_sides]
+        across[preset] = (per_travel, spread(means))
+    emit("Over the grids (%s per side) the sag spreads by %s for the three lowerings, and the three-run means by %s."
+         % (", ".join(str(s) for s in drape_sides),
+            "; ".join("%s %s" % (p, " / ".join("%.1f %%" % (100 * v) for v in across[p][0])) for p in presets),
+            ", ".join("%s %.1f %%" % (p, 100 * across[p][1]) for p in presets)))
+    worst = max(within, key=within.get)
+    emit("Lowered half a second faster or slower, one grid's sag moves by up to %.1f %% (%s at %d per side), while"
+         % (100 * within[worst], worst[0], worst[1]))
+    if within[worst] > DRAPE_SPREAD_TOLERANCE:
+        emit("the issue asks the grids to agree within %.0f %%: which folds form depends as much on how the cloth is"
+             % (100 * DRAPE_SPREAD_TOLERANCE))
+        emit("lowered as on the grid, so one run per grid can neither show nor refute a %.0f %% agreement; the"
+             % (100 * DRAPE_SPREAD_TOLERANCE))
+        emit("target stays **not met** as the issue states it.")
+    else:
+        emit("the issue asks the grids to agree within %.0f %%: on one grid the sag is repeatable to within that,"
+             % (100 * DRAPE_SPREAD_TOLERANCE))
+        emit("so the spread over the grids above measures the grids.")
+    emit("Command: `cloth_bench --validate drape --material %s --side %d --seconds %d --compression-model buckling"
+         % (worst[0], worst[1], DRAPE_SECONDS))
+    emit("--set pin_travel_time=%g`." % travels[0])
+    emit("")
 
 
 def main():
@@ -376,6 +438,7 @@ def main():
     emit("Command: `cloth_bench --validate drape --material cotton --side 80 --seconds %d" % DRAPE_SECONDS)
     emit("--compression-model buckling`.")
     emit("")
+    scatter_lines(args, presets, drape_sides, buckled, raw_dir, emit)
     if not args.quick:
         finer = {}
         for side in DRAPE_CONVERGENCE_SIDES:

@@ -1,6 +1,7 @@
 #include "cloth_sim/ros/conversions.h"
 
 #include "cloth_sim/io/scene_file.h"  // kCoreTagPrefix
+#include "cloth_sim/ros/drawable.h"
 
 #include <Eigen/Geometry>
 #include <ros/param.h>
@@ -193,11 +194,13 @@ bool fromStateMessage(const cloth_sim::ClothState& message, int max_side, Eigen:
   positions_m->resize(3, static_cast<Eigen::Index>(count));
   for (std::size_t i = 0; i < count; ++i) {
     const geometry_msgs::Point& p = message.positions[i];
+    if (!drawablePosition(p)) {
+      std::ostringstream reason;
+      reason << "position " << i << " is not finite or beyond " << kMaxDrawnCoordinate_m << " m on an axis";
+      *error = reason.str();
+      return false;
+    }
     positions_m->col(static_cast<Eigen::Index>(i)) << p.x, p.y, p.z;
-  }
-  if (!positions_m->allFinite()) {
-    *error = "a position is not finite";
-    return false;
   }
   if (!message.active.empty() && message.active.size() != count) {
     *error = std::to_string(message.active.size()) + " active flags for " + std::to_string(count) + " particles";

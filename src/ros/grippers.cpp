@@ -58,6 +58,15 @@ bool Grippers::onAttach(cloth_sim::Attach::Request& request, cloth_sim::Attach::
     response.message = name + ": unknown frame '" + request.frame + "' (tf: " + why + ")";
     return true;
   }
+  // A frame that stopped being published would be called lost by the first frame after the attach (and the
+  // particles held still where it was last seen): refused now, while the client can still do something.
+  if (const double age_s = secondsBetween(stamp, ros::Time::now()); !stamp.isZero() && age_s > kLostAfter_s) {
+    std::ostringstream message;
+    message << name << ": the newest transform of frame '" << request.frame << "' is " << age_s
+            << " s old (a gripper follows a frame at most " << kLostAfter_s << " s stale)";
+    response.message = message.str();
+    return true;
+  }
   std::vector<int> held;
   std::string error;
   if (!simulation_().attachGripper(attach, &held, &error)) {

@@ -3,6 +3,7 @@
 #include "cloth_sim/core/grid.h"
 #include "cloth_sim/core/options.h"
 #include "cloth_sim/core/simulation.h"
+#include "cloth_sim/ros/drawable.h"
 
 #include <OGRE/OgreManualObject.h>
 #include <OGRE/OgreMaterialManager.h>
@@ -68,6 +69,7 @@ void ClothStateDisplay::onInitialize() {
 void ClothStateDisplay::reset() {
   MFDClass::reset();
   pending_.reset();
+  drawn_.reset();
   mesh_->clear();
   mesh_built_ = false;
   rows_ = cols_ = 0;
@@ -83,7 +85,8 @@ void ClothStateDisplay::updateAppearance() {
   pass->setDepthWriteEnabled(!transparent);
   if (rows_ > 0) {
     computeColours(rows_, cols_);
-    mesh_built_ = false;  // the colours live in the vertex buffer: rebuilt with the next message
+    mesh_built_ = false;  // the colours live in the vertex buffer: rebuilt from the last message drawn
+    if (!pending_) pending_ = drawn_;  // a paused or finished bag sends no next message
   }
   context_->queueRender();
 }
@@ -112,10 +115,10 @@ void ClothStateDisplay::update(float /*wall_dt*/, float /*ros_dt*/) {
   if (!pending_) return;
   const cloth_sim::ClothState::ConstPtr message = pending_;
   pending_.reset();
-  draw(*message);
+  if (draw(*message)) drawn_ = message;
 }
 
-void ClothStateDisplay::draw(const cloth_sim::ClothState& message) {
+bool ClothStateDisplay::draw(const cloth_sim::ClothState& message) {
   const std::uint32_t rows = message.rows;
   const std::uint32_t cols = message.cols;
   const auto side_ok = [](std::uint32_t side) { return side >= 2 && side <= core::OptionLimits::kMaxGridSide; };
@@ -126,7 +129,7 @@ void ClothStateDisplay::draw(const cloth_sim::ClothState& message) {
                   .arg(rows)
                   .arg(cols)
                   .arg(core::OptionLimits::kMaxGridSide));
-    return;
+    return false;
   }
   const std::size_t count = message.positions.size();
   // The same flags cloth_viewer accepts (fromStateMessage): none, or one 0 or 1 per particle.
@@ -136,14 +139,15 @@ void ClothStateDisplay::draw(const cloth_sim::ClothState& message) {
   if (!flags_ok) {
     setStatus(rviz::StatusProperty::Error, "Message",
               QString("%1 active flags for %2 particles, each 0 or 1: not drawn").arg(message.active.size()).arg(count));
-    return;
+    return false;
   }
   std::vector<Eigen::Vector3f> positions(count);
   for (std::size_t i = 0; i < count; ++i) {
     const geometry_msgs::Point& p = message.positions[i];
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
-      setStatus(rviz::StatusProperty::Error, "Message", QString("position %1 is not finite: not drawn").arg(i));
-      return;
+    if (!drawablePosition(p)) {
+      setStatus(rviz::StatusProperty::Error, "Message",
+                QString("position %1 is not finite or beyond %2 m on an axis: not drawn").arg(i).arg(kMaxDrawnCoordinate_m));
+      return false;
     }
     positions[i] = Eigen::Vector3f(static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z));
   }
@@ -154,10 +158,9 @@ void ClothStateDisplay::draw(const cloth_sim::ClothState& message) {
               QString("no transform from '%1' to '%2'")
                   .arg(QString::fromStdString(message.header.frame_id))
                   .arg(fixed_frame_));
-    return;
+    return false;
   }
-  setStatus(rviz::StatusProperty::Ok, "Message",
-            QString("%1 x %2 particles, frame %3").arg(rows).arg(cols).arg(message.frame));
+  deleteStatus("Transform");  // set while the frame was unknown; gone once it is drawn again
   scene_node_->setPosition(position);
   scene_node_->setOrientation(orientation);
 
@@ -177,6 +180,17 @@ void ClothStateDisplay::draw(const cloth_sim::ClothState& message) {
     indices_.assign(grid.triangles.begin(), grid.triangles.end());
     mesh_built_ = false;
   }
+  if (indices_.empty()) {
+    // Ogre draws a section with no index as its plain vertex list: garbage across the whole grid.
+    mesh_->clear();
+    mesh_built_ = false;
+    setStatus(rviz::StatusProperty::Warn, "Message",
+              QString("%1 x %2 particles, no triangle among the active ones: nothing drawn").arg(rows).arg(cols));
+    context_->queueRender();
+    return true;
+  }
+  setStatus(rviz::StatusProperty::Ok, "Message",
+            QString("%1 x %2 particles, frame %3").arg(rows).arg(cols).arg(message.frame));
   // Per-particle normals from central differences along the grid (one-sided at the edges, and where a
   // neighbour is not cloth): the cross product of the column and row directions, the same orientation as
   // the triangles above.
@@ -197,6 +211,7 @@ void ClothStateDisplay::draw(const cloth_sim::ClothState& message) {
   }
   fillMesh(positions, normals);
   context_->queueRender();
+  return true;
 }
 
 void ClothStateDisplay::fillMesh(const std::vector<Eigen::Vector3f>& positions_m,

@@ -47,7 +47,8 @@ class ClothStateDisplay : public rviz::MessageFilterDisplay<cloth_sim::ClothStat
   void updateAppearance();
 
  private:
-  void draw(const cloth_sim::ClothState& message);
+  /// Draws the message, or says in the status why not (false: nothing changed on screen).
+  bool draw(const cloth_sim::ClothState& message);
   /// The colour of every particle: the node's default checker (as cloth_viewer draws it) or one colour.
   void computeColours(int rows, int cols);
   /// Fills the ManualObject: both faces of every quad, the back with reversed winding and flipped normals
@@ -55,6 +56,7 @@ class ClothStateDisplay : public rviz::MessageFilterDisplay<cloth_sim::ClothStat
   void fillMesh(const std::vector<Eigen::Vector3f>& positions_m, const std::vector<Eigen::Vector3f>& normals);
 
   cloth_sim::ClothState::ConstPtr pending_;  ///< received, not drawn yet
+  cloth_sim::ClothState::ConstPtr drawn_;    ///< the last message drawn: drawn again when a property changes
   Ogre::ManualObject* mesh_ = nullptr;
   Ogre::MaterialPtr material_;
   rviz::BoolProperty* checker_property_ = nullptr;

@@ -35,6 +35,8 @@ Runs one textile test of doc/VALIDATION.md and prints one JSON line on stdout (m
   --cols N               cantilever: particles along the strip's free length (default 21)
   --side N               drape, hanging, cusick: particles per side (default 20)
   --seconds S            drape, cusick: simulated time (default 8)
+  --set KEY=VALUE        drape: a key of the `drape` scene, after the options above (repeatable), e.g.
+                         --set pin_travel_time=3.5 to lower the corners to the hooks over 3.5 s
   --positions            drape, cusick: also print the final particle positions (and cusick its triangles)
   --scenes-dir DIR       where built-in scenes live (default: the build's config/scenes)
   --help                 this text
@@ -59,6 +61,8 @@ struct ValidateOptions {
   bool positions = false;
   bool help = false;
   std::string scenes_dir;
+  /// --set KEY=VALUE: drape scene keys overlaid after the named options (the others build their scenes in code).
+  std::vector<SceneOverride> settings;
 };
 
 double msSince(Clock::time_point start) {
@@ -137,13 +141,19 @@ void printPositions(const Eigen::Matrix3Xd& positions_m, std::ostringstream& out
 int drape(const ValidateOptions& options) {
   core::SceneOptions scene;
   std::vector<std::string> errors;
-  const std::vector<SceneOverride> overrides{{"--material", "material", options.material},
-                                             {"--bend-model", "bend_model", core::bendModelName(options.bend_model)},
-                                             {"--compression-model", "compression_model",
-                                              core::compressionModelName(options.compression_model)},
-                                             {"--side", "rows", std::to_string(options.side)},
-                                             {"--side", "cols", std::to_string(options.side)}};
-  if (!loadSceneWithOverrides("drape", options.scenes_dir, overrides, &scene, &errors) || !validateInto(scene, &errors)) {
+  std::vector<SceneOverride> overrides{{"--material", "material", options.material},
+                                       {"--bend-model", "bend_model", core::bendModelName(options.bend_model)},
+                                       {"--compression-model", "compression_model",
+                                        core::compressionModelName(options.compression_model)},
+                                       {"--side", "rows", std::to_string(options.side)},
+                                       {"--side", "cols", std::to_string(options.side)}};
+  overrides.insert(overrides.end(), options.settings.begin(), options.settings.end());
+  if (loadSceneWithOverrides("drape", options.scenes_dir, overrides, &scene, &errors) && validateInto(scene, &errors) &&
+      scene.pin_positions_m.empty()) {
+    // The sag is measured from the first hook's height.
+    errors.push_back("--set: the drape needs its hooks (pin_positions)");
+  }
+  if (!errors.empty()) {
     for (const std::string& e : errors) std::cerr << "cloth_bench: " << e << "\n";
     return kExitUsage;
   }
@@ -281,6 +291,8 @@ void parse(int argc, char** argv, ValidateOptions* options, std::vector<std::str
       } else {
         options->seconds = *s;
       }
+    } else if (flag == "--set") {
+      parseSceneSetting(value(), &options->settings, errors);
     } else if (flag == "--positions") {
       options->positions = true;
     } else if (flag == "--scenes-dir") {
@@ -290,6 +302,9 @@ void parse(int argc, char** argv, ValidateOptions* options, std::vector<std::str
     } else {
       errors->push_back("unknown flag " + flag);
     }
+  }
+  if (!options->settings.empty() && !options->test.empty() && options->test != "drape") {
+    errors->push_back("--set: only the drape is a scene file (" + options->test + " builds its own)");
   }
   if (!options->help && options->test != "cantilever" && options->test != "drape" && options->test != "hanging" &&
       options->test != "cusick") {

@@ -338,6 +338,35 @@ void expectRefused(const std::vector<std::pair<std::string, std::string>>& refus
   }
 }
 
+TEST(ClothBenchValidate, TheDrapeTakesSceneKeysAndTheSagFollowsThem) {
+  // doc/VALIDATION.md measures how far the drape's sag moves when its corners are lowered a little faster or
+  // slower (`--set pin_travel_time=...`): the setting must reach the scene, and only the drape takes one.
+  const std::string base = std::string(CLOTH_BENCH_EXECUTABLE) + " --validate drape --side 8 --seconds 1";
+  const auto sagOf = [](const std::string& output) {
+    const std::size_t at = output.find("\"sag_m\": ");
+    return at == std::string::npos ? std::nan("") : std::stod(output.substr(at + 9));
+  };
+  int status = -1;
+  const std::string scene_own = runCommand(base + " 2>&1", &status);
+  ASSERT_EQ(status, 0) << scene_own;
+  const std::string same = runCommand(base + " --set pin_travel_time=4.0 2>&1", &status);
+  ASSERT_EQ(status, 0) << same;
+  const std::string faster = runCommand(base + " --set pin_travel_time=0.5 2>&1", &status);
+  ASSERT_EQ(status, 0) << faster;
+  // The scene's own 4 s: the same run to the bit. After 1 s of 4 the hooks have come a quarter of their
+  // way in (5 of 20 cm); lowered in 0.5 s they are there, and the top edge has more slack to sag with
+  // (measured: 3.5 cm against 1.1 cm).
+  EXPECT_EQ(sagOf(same), sagOf(scene_own)) << same << "\n" << scene_own;
+  EXPECT_GT(sagOf(faster), sagOf(scene_own) + 0.01) << faster << "\n" << scene_own;
+  expectRefused({
+      {"--validate cantilever --set pin_travel_time=3", "--set: only the drape is a scene file (cantilever builds its own)"},
+      {"--validate drape --set pin_travel_time", "--set pin_travel_time: expected KEY=VALUE"},
+      {"--validate drape --side 8 --set pin_positions=[]", "--set: the drape needs its hooks (pin_positions)"},
+      {"--validate drape --side 8 --set no_such_key=1", "no_such_key"},
+  });
+}
+
+
 TEST(ClothBenchCommandLine, EveryModesHelpPrintsItsUsageAndSucceeds) {
   // `cloth_bench --help` says each mode has a --help of its own: --validate took "--help" for its test's name,
   // and --spatial asked for its --grids first (both exited 2).

@@ -4,6 +4,7 @@
 #include "cloth_sim/core/simulation.h"
 #include "cloth_sim/io/scene_file.h"
 #include "cloth_sim/ros/conversions.h"
+#include "cloth_sim/ros/drawable.h"
 #include "cloth_sim/ros/grasp_queue.h"
 #include "cloth_sim/ros/ros_time.h"
 #include "cloth_sim/ros/sensor_conversions.h"
@@ -149,13 +150,23 @@ TEST(FromStateMessage, AMaxSideBelowTwoRefusesEveryGrid) {
   }
 }
 
-TEST(FromStateMessage, RefusesANonFinitePosition) {
+TEST(FromStateMessage, RefusesAPositionItCannotDraw) {
+  // Not finite, or finite as a double but infinite as the float a marker holds (1e39: rviz aborted in
+  // Ogre's bounding box, an audit found), or merely beyond kMaxDrawnCoordinate_m.
+  for (const double bad : {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity(), 1e39,
+                           -2 * cloth_sim::kMaxDrawnCoordinate_m}) {
+    Eigen::Matrix3Xd positions_m;
+    std::string error;
+    cloth_sim::ClothState message = gridState(2, 2);
+    message.positions[3].y = bad;
+    EXPECT_FALSE(cloth_sim::fromStateMessage(message, 512, &positions_m, &error)) << bad;
+    EXPECT_EQ(error, "position 3 is not finite or beyond 1e+06 m on an axis") << bad;
+  }
   Eigen::Matrix3Xd positions_m;
   std::string error;
   cloth_sim::ClothState message = gridState(2, 2);
-  message.positions[3].y = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_FALSE(cloth_sim::fromStateMessage(message, 512, &positions_m, &error));
-  EXPECT_EQ(error, "a position is not finite");
+  message.positions[3].z = -cloth_sim::kMaxDrawnCoordinate_m;
+  EXPECT_TRUE(cloth_sim::fromStateMessage(message, 512, &positions_m, &error)) << error;
 }
 
 TEST(FromStateMessage, GivesTheParticlesThatAreClothAndRefusesMalformedFlags) {

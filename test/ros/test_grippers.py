@@ -175,6 +175,23 @@ class Grippers(unittest.TestCase):
         self.assertFalse(response.success, "accepted; expected a refusal naming '%s'" % expected)
         self.assertIn(expected, response.message)
 
+    def attach_stale(self, gripper_id, frame, position, age_s):
+        """Publishes `frame` once at `position`, stamped age_s ago, and attaches it (retrying until tf knows it)."""
+        publisher = rospy.Publisher("/tf", TFMessage, queue_size=10)
+        deadline = time.monotonic() + DEADLINE_S
+        while True:
+            t = TransformStamped()
+            t.header.stamp = rospy.Time.now() - rospy.Duration(age_s)
+            t.header.frame_id = WORLD
+            t.child_frame_id = frame
+            t.transform.translation.x, t.transform.translation.y, t.transform.translation.z = position
+            t.transform.rotation.w = 1.0
+            publisher.publish(TFMessage(transforms=[t]))
+            response = self.request(gripper_id, frame, particles=[5])
+            if "unknown frame" not in response.message or time.monotonic() > deadline:
+                return response
+            time.sleep(0.1)
+
     def attach_when_known(self, *args, **kwargs):
         """Attaches, retrying while the node's tf does not know the frame yet (it was just published)."""
         deadline = time.monotonic() + DEADLINE_S
@@ -198,6 +215,9 @@ class Grippers(unittest.TestCase):
         self.refused(self.request(1, "refusals", particles=[0], max_force=float("inf")), "max_force")
         self.refused(self.request(1, "refusals", particles=[0], max_force=-2.0), "max_force")
         self.refused(self.request(1, "", particles=[0]), "frame")
+        # A frame whose newest transform is older than the node follows (it stopped being published) is refused
+        # naming its age; it was taken, and the next frame called the gripper lost.
+        self.refused(self.attach_stale(1, "stale", top, age_s=3.0), "the newest transform of frame 'stale' is 3")
         held = self.request(1, "refusals", particles=[5])
         self.assertTrue(held.success, held.message)
         self.assertEqual(list(held.particles), [5])
