@@ -29,6 +29,8 @@ namespace {
 constexpr double kUnitSide_m = 1.0;
 /// The default one colour: the checker's light squares.
 const QColor kDefaultColour(237, 219, 158);
+/// The status entry naming a frame the cloth cannot be placed in.
+const QString kTransformStatus = "Transform";
 /// Ogre's resource group for the material and mesh made at run time.
 const std::string& resourceGroup() { return Ogre::ResourceGroupManager::DEFAULT_RESOURCE_GROUP_NAME; }
 
@@ -70,6 +72,7 @@ void ClothStateDisplay::reset() {
   MFDClass::reset();
   pending_.reset();
   drawn_.reset();
+  newest_drawn_ = false;
   mesh_->clear();
   mesh_built_ = false;
   rows_ = cols_ = 0;
@@ -86,7 +89,9 @@ void ClothStateDisplay::updateAppearance() {
   if (rows_ > 0) {
     computeColours(rows_, cols_);
     mesh_built_ = false;  // the colours live in the vertex buffer: rebuilt from the last message drawn
-    if (!pending_) pending_ = drawn_;  // a paused or finished bag sends no next message
+    // A paused or finished bag sends no next message: the last one drawn is drawn again, unless a newer
+    // one was refused (its status stays, and the cloth keeps its colours until one is drawn).
+    if (!pending_ && newest_drawn_) pending_ = drawn_;
   }
   context_->queueRender();
 }
@@ -115,10 +120,13 @@ void ClothStateDisplay::update(float /*wall_dt*/, float /*ros_dt*/) {
   if (!pending_) return;
   const cloth_sim::ClothState::ConstPtr message = pending_;
   pending_.reset();
-  if (draw(*message)) drawn_ = message;
+  // A redraw is placed where the frame is now: tf may no longer hold the old stamp (10 s of cache).
+  const bool redraw = message == drawn_;
+  newest_drawn_ = draw(*message, redraw);
+  if (newest_drawn_) drawn_ = message;
 }
 
-bool ClothStateDisplay::draw(const cloth_sim::ClothState& message) {
+bool ClothStateDisplay::draw(const cloth_sim::ClothState& message, bool redraw) {
   const std::uint32_t rows = message.rows;
   const std::uint32_t cols = message.cols;
   const auto side_ok = [](std::uint32_t side) { return side >= 2 && side <= core::OptionLimits::kMaxGridSide; };
@@ -153,14 +161,16 @@ bool ClothStateDisplay::draw(const cloth_sim::ClothState& message) {
   }
   Ogre::Vector3 position;
   Ogre::Quaternion orientation;
-  if (!context_->getFrameManager()->getTransform(message.header, position, orientation)) {
-    setStatus(rviz::StatusProperty::Error, "Transform",
+  std_msgs::Header header = message.header;
+  if (redraw) header.stamp = ros::Time();  // the newest transform
+  if (!context_->getFrameManager()->getTransform(header, position, orientation)) {
+    setStatus(rviz::StatusProperty::Error, kTransformStatus,
               QString("no transform from '%1' to '%2'")
                   .arg(QString::fromStdString(message.header.frame_id))
                   .arg(fixed_frame_));
     return false;
   }
-  deleteStatus("Transform");  // set while the frame was unknown; gone once it is drawn again
+  deleteStatus(kTransformStatus);  // set while the frame was unknown; gone once it is drawn again
   scene_node_->setPosition(position);
   scene_node_->setOrientation(orientation);
 

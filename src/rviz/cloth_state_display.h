@@ -47,8 +47,9 @@ class ClothStateDisplay : public rviz::MessageFilterDisplay<cloth_sim::ClothStat
   void updateAppearance();
 
  private:
-  /// Draws the message, or says in the status why not (false: nothing changed on screen).
-  bool draw(const cloth_sim::ClothState& message);
+  /// Draws the message, or says in the status why not (false: nothing changed on screen). A redraw (the
+  /// same message again, after a property change) is placed with the frame's newest transform.
+  bool draw(const cloth_sim::ClothState& message, bool redraw);
   /// The colour of every particle: the node's default checker (as cloth_viewer draws it) or one colour.
   void computeColours(int rows, int cols);
   /// Fills the ManualObject: both faces of every quad, the back with reversed winding and flipped normals
@@ -57,6 +58,7 @@ class ClothStateDisplay : public rviz::MessageFilterDisplay<cloth_sim::ClothStat
 
   cloth_sim::ClothState::ConstPtr pending_;  ///< received, not drawn yet
   cloth_sim::ClothState::ConstPtr drawn_;    ///< the last message drawn: drawn again when a property changes
+  bool newest_drawn_ = false;                ///< the newest message handled was drawn (not refused)
   Ogre::ManualObject* mesh_ = nullptr;
   Ogre::MaterialPtr material_;
   rviz::BoolProperty* checker_property_ = nullptr;

@@ -306,6 +306,16 @@ void parse(int argc, char** argv, ValidateOptions* options, std::vector<std::str
   if (!options->settings.empty() && !options->test.empty() && options->test != "drape") {
     errors->push_back("--set: only the drape is a scene file (" + options->test + " builds its own)");
   }
+  // The JSON line reports these from the named options: set through --set it would name another run.
+  for (const SceneOverride& setting : options->settings) {
+    for (const auto& [key, flag] : {std::pair<const char*, const char*>{"material", "--material"},
+                                    {"bend_model", "--bend-model"},
+                                    {"compression_model", "--compression-model"},
+                                    {"rows", "--side"},
+                                    {"cols", "--side"}}) {
+      if (setting.key == key) errors->push_back("--set " + setting.key + ": give it as " + flag);
+    }
+  }
   if (!options->help && options->test != "cantilever" && options->test != "drape" && options->test != "hanging" &&
       options->test != "cusick") {
     errors->push_back(options->test.empty() ? "--validate needs a test: cantilever, drape, hanging or cusick"

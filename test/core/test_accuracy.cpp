@@ -363,9 +363,10 @@ TEST(ClothBenchValidate, TheDrapeTakesSceneKeysAndTheSagFollowsThem) {
       {"--validate drape --set pin_travel_time", "--set pin_travel_time: expected KEY=VALUE"},
       {"--validate drape --side 8 --set pin_positions=[]", "--set: the drape needs its hooks (pin_positions)"},
       {"--validate drape --side 8 --set no_such_key=1", "no_such_key"},
+      {"--validate drape --set rows=30", "--set rows: give it as --side"},
+      {"--validate drape --set material=denim", "--set material: give it as --material"},
   });
 }
-
 
 TEST(ClothBenchCommandLine, EveryModesHelpPrintsItsUsageAndSucceeds) {
   // `cloth_bench --help` says each mode has a --help of its own: --validate took "--help" for its test's name,

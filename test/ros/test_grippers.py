@@ -15,6 +15,7 @@ test publishes gripper frames in tf itself and checks, in order:
 """
 import math
 import os
+import re
 import tempfile
 import threading
 import time
@@ -217,7 +218,11 @@ class Grippers(unittest.TestCase):
         self.refused(self.request(1, "", particles=[0]), "frame")
         # A frame whose newest transform is older than the node follows (it stopped being published) is refused
         # naming its age; it was taken, and the next frame called the gripper lost.
-        self.refused(self.attach_stale(1, "stale", top, age_s=3.0), "the newest transform of frame 'stale' is 3")
+        stale = self.attach_stale(1, "stale", top, age_s=3.0)
+        self.refused(stale, "s old (a gripper follows a frame at most 0.5 s stale)")
+        age = re.search(r"the newest transform of frame 'stale' is ([0-9.]+) s old", stale.message)
+        self.assertIsNotNone(age, stale.message)
+        self.assertGreaterEqual(float(age.group(1)), 3.0, stale.message)
         held = self.request(1, "refusals", particles=[5])
         self.assertTrue(held.success, held.message)
         self.assertEqual(list(held.particles), [5])

@@ -20,8 +20,8 @@
 
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <poll.h>
 #include <sys/prctl.h>
-#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -40,48 +40,57 @@ constexpr int kSide = 20;
 constexpr double kSpacing_m = 0.05;
 /// How long a case may wait for rviz (software GL on a loaded 2-core machine), s.
 constexpr double kDeadline_s = 30.0;
-/// Xvfb's display numbers tried: a range no desktop uses.
-constexpr int kFirstDisplay = 90;
-constexpr int kDisplaysTried = 100;
+/// The virtual screen, and how long Xvfb may take to accept connections.
+constexpr const char* kScreen = "800x600x24";
+constexpr int kXvfbStartTimeout_ms = 20000;
+/// How often the test publishes while it waits, and how long each turn of rviz's event loop may take.
+constexpr std::chrono::milliseconds kPublishPeriod{100};
+constexpr int kEventLoopTurn_ms = 20;
+constexpr std::chrono::milliseconds kLoopPause{10};
+/// Window captures this far apart that are the same: the cloth has been drawn and nothing moves.
+constexpr double kSettle_s = 0.5;
+/// A repaint of the cloth changes at least this many pixels (its dark checker squares: about a third of
+/// its 20 x 20 cells, thousands of pixels in the 800 x 600 window).
+constexpr int kRepaintedPixels = 1000;
 /// The forked child's exit status when Xvfb cannot be run.
 constexpr int kExecFailed = 127;
 /// Pixels whose colour changed by more than this (of 255, in any channel) count as repainted.
 constexpr int kChangedLevel = 30;
 
-/// Xvfb on a free display number, DISPLAY set to it; stopped with the test process.
+/// Xvfb on a display number it picks itself (-displayfd: it writes the number once it accepts
+/// connections), DISPLAY set to it; stopped with the test process, even when that is aborted.
 class DisplayServer {
  public:
   bool start() {
-    for (int k = 0; k < kDisplaysTried; ++k) {
-      const int number = kFirstDisplay + (static_cast<int>(getpid()) + k) % kDisplaysTried;
-      struct stat lock;
-      if (stat(("/tmp/.X" + std::to_string(number) + "-lock").c_str(), &lock) == 0) continue;
-      const std::string name = ":" + std::to_string(number);
-      char* argv[] = {const_cast<char*>("Xvfb"), const_cast<char*>(name.c_str()), const_cast<char*>("-screen"),
-                      const_cast<char*>("0"), const_cast<char*>("800x600x24"), const_cast<char*>("-nolisten"),
-                      const_cast<char*>("tcp"), nullptr};
-      pid_ = fork();
-      if (pid_ < 0) return false;
-      if (pid_ == 0) {
-        // Ends with the test even when rviz aborts it (the defect this test looks for did).
-        prctl(PR_SET_PDEATHSIG, SIGTERM);
-        execvp("Xvfb", argv);
-        _exit(kExecFailed);
-      }
-      const std::string socket = "/tmp/.X11-unix/X" + std::to_string(number);
-      for (int wait = 0; wait < 100; ++wait) {
-        struct stat ready;
-        if (stat(socket.c_str(), &ready) == 0) {
-          setenv("DISPLAY", name.c_str(), 1);
-          return true;
-        }
-        int status = 0;
-        if (waitpid(pid_, &status, WNOHANG) == pid_) break;  // that number was taken after all
-        std::this_thread::sleep_for(std::chrono::milliseconds(100));
-      }
-      stop();
+    int ready[2];
+    if (pipe(ready) != 0) return false;
+    const std::string fd = std::to_string(ready[1]);
+    char* argv[] = {const_cast<char*>("Xvfb"), const_cast<char*>("-displayfd"), const_cast<char*>(fd.c_str()),
+                    const_cast<char*>("-screen"), const_cast<char*>("0"), const_cast<char*>(kScreen),
+                    const_cast<char*>("-nolisten"), const_cast<char*>("tcp"), nullptr};
+    const pid_t parent = getpid();
+    pid_ = fork();
+    if (pid_ < 0) return false;
+    if (pid_ == 0) {
+      close(ready[0]);
+      // Ends with the test even when rviz aborts it (the defect this test looks for did).
+      prctl(PR_SET_PDEATHSIG, SIGTERM);
+      if (getppid() != parent) _exit(kExecFailed);
+      execvp("Xvfb", argv);
+      _exit(kExecFailed);
     }
-    return false;
+    close(ready[1]);
+    std::string number;
+    pollfd wait{ready[0], POLLIN, 0};
+    char c = 0;
+    while (poll(&wait, 1, kXvfbStartTimeout_ms) == 1 && read(ready[0], &c, 1) == 1 && c != '\n') number += c;
+    close(ready[0]);
+    if (number.empty()) {
+      stop();
+      return false;
+    }
+    setenv("DISPLAY", (":" + number).c_str(), 1);
+    return true;
   }
   void stop() {
     if (pid_ <= 0) return;
@@ -143,11 +152,11 @@ class RvizWindow {
     while (std::chrono::steady_clock::now() < deadline) {
       if (message != nullptr && std::chrono::steady_clock::now() >= next_publish) {
         state_pub_.publish(*message);
-        next_publish += std::chrono::milliseconds(100);
+        next_publish += kPublishPeriod;
       }
-      app_.processEvents(QEventLoop::AllEvents, 20);
+      app_.processEvents(QEventLoop::AllEvents, kEventLoopTurn_ms);
       if (done()) return true;
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      std::this_thread::sleep_for(kLoopPause);
     }
     return false;
   }
@@ -231,7 +240,8 @@ TEST(RvizDisplay, DrawsWhatItCanSaysWhyNotAndRedrawsOnAPropertyChange) {
   none.active.assign(static_cast<std::size_t>(kSide) * kSide, 0);
   EXPECT_TRUE(rviz.runUntil(says(rviz::StatusProperty::Warn, "no triangle among the active ones"), &none));
 
-  // A frame tf does not know, then the right one: the Transform error goes once the cloth is drawn again.
+  // A frame rviz cannot look up, then the right one: the Transform error goes once the cloth is drawn again.
+  // ("/world": tf2 refuses a frame name with a leading slash, so the display itself reports it.)
   cloth_sim::ClothState slash = flatCloth();
   slash.header.frame_id = "/world";
   const auto transform_error = [&rviz] {
@@ -242,14 +252,20 @@ TEST(RvizDisplay, DrawsWhatItCanSaysWhyNotAndRedrawsOnAPropertyChange) {
   EXPECT_TRUE(rviz.runUntil(says(rviz::StatusProperty::Ok, "20 x 20 particles"), &good));
   EXPECT_TRUE(rviz.runUntil([&] { return !transform_error(); }, &good)) << "the Transform error stayed";
 
-  // No message arrives any more (a paused bag): Checker off must repaint the cloth in one colour at once.
-  rviz.idle(1.0);
-  const QImage checkered = rviz.capture("checkered");
-  rviz.display()->subProp("Checker")->setValue(false);
-  rviz.idle(1.0);
-  const QImage plain = rviz.capture("plain");
+  // No message arrives any more (a paused bag): Checker off must repaint the cloth in one colour. First
+  // the window as it settles (two captures alike), then a wait for the repaint.
+  QImage checkered = rviz.capture("checkered");
+  ASSERT_TRUE(rviz.runUntil([&] {
+    rviz.idle(kSettle_s);
+    const QImage next = rviz.capture("checkered");
+    const bool settled = changedPixels(checkered, next) == 0;
+    checkered = next;
+    return settled;
+  }));
   ASSERT_FALSE(checkered.isNull());
-  EXPECT_GT(changedPixels(checkered, plain), 1000) << "the paused cloth was not redrawn";
+  rviz.display()->subProp("Checker")->setValue(false);
+  EXPECT_TRUE(rviz.runUntil([&] { return changedPixels(checkered, rviz.capture("plain")) > kRepaintedPixels; }))
+      << "the paused cloth was not redrawn";
 
   frame.reset();  // before the display server goes
 }

@@ -31,7 +31,8 @@ visualization_msgs::Marker toMeshMarker(const core::ClothGrid& grid, const Eigen
                                         const ros::Time& stamp);
 
 /// Positions of a ClothState as a 3 x N array; false with *error (naming what is wrong) when rows, cols and
-/// the position count disagree, the grid is outside [2, max_side] per side, or a value is not finite.
+/// the position count disagree, the grid is outside [2, max_side] per side, or a position cannot be drawn
+/// (not finite, or beyond kMaxDrawnCoordinate_m on an axis: cloth_sim/ros/drawable.h).
 bool fromStateMessage(const cloth_sim::ClothState& message, int max_side, Eigen::Matrix3Xd* positions_m,
                       std::string* error);
 /// The same, and the particles that are cloth (`active`: empty when every particle is, else one 0 or 1 per
