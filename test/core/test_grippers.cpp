@@ -249,6 +249,18 @@ void attachTopRow(Simulation& sim, double max_force_N) {
   EXPECT_TRUE(sim.attachGripper(request, &held, &error)) << error;
 }
 
+/// Grasp 7 on particle 0 (a top-row corner), its target `offset_m` from where the particle is, with a spring
+/// of `stiffness_N_per_m`.
+void grabCorner(Simulation& sim, const Eigen::Vector3d& offset_m, double stiffness_N_per_m) {
+  GraspRequest grasp;
+  grasp.id = 7;
+  grasp.particle = 0;
+  grasp.target_m = sim.state().positions_m.col(0) + offset_m;
+  grasp.stiffness_N_per_m = stiffness_N_per_m;
+  std::string error;
+  EXPECT_TRUE(sim.grab(grasp, &error)) << error;
+}
+
 TEST(Grippers, AGraspOfAParticleAGripperHoldsCostsAnExplicitIntegratorNoSubsteps) {
   // A review's: the forces left such a grasp out, but the stability guard still bounded its 1e7 N/m spring,
   // so symplectic Euler took 22x the substeps (and another trajectory). Now the same bits as without it.
@@ -258,15 +270,7 @@ TEST(Grippers, AGraspOfAParticleAGripperHoldsCostsAnExplicitIntegratorNoSubsteps
     options.substeps = SceneOptions::kAutoSubsteps;
     auto sim = std::make_unique<Simulation>(options);
     attachTopRow(*sim, 0.0);
-    std::string error;
-    if (grasped) {
-      GraspRequest grasp;
-      grasp.id = 7;
-      grasp.particle = 0;
-      grasp.target_m = sim->state().positions_m.col(0);
-      grasp.stiffness_N_per_m = OptionLimits::kMaxStiffnessN_per_m;
-      EXPECT_TRUE(sim->grab(grasp, &error)) << error;
-    }
+    if (grasped) grabCorner(*sim, Eigen::Vector3d::Zero(), OptionLimits::kMaxStiffnessN_per_m);
     int substeps = 0;
     for (int k = 0; k < 20; ++k) substeps += sim->advanceFrame().substeps_used;
     return std::make_pair(substeps, Eigen::Matrix3Xd(sim->state().positions_m));
@@ -284,14 +288,8 @@ TEST(Grippers, AGraspOfAParticleAGripperHoldsHasNoEffectUntilTheGripperLetsGo) {
   const auto hang = [](bool grasped) {
     auto sim = std::make_unique<Simulation>(unpinnedHanging(10, 10));
     attachTopRow(*sim, 5.0);
-    std::string error;
     if (grasped) {
-      GraspRequest grasp;
-      grasp.id = 7;
-      grasp.particle = 0;
-      grasp.target_m = sim->state().positions_m.col(0) + Eigen::Vector3d(0.5, 0.0, 0.0);
-      grasp.stiffness_N_per_m = 500.0;
-      EXPECT_TRUE(sim->grab(grasp, &error)) << error;
+      grabCorner(*sim, Eigen::Vector3d(0.5, 0.0, 0.0), 500.0);
       EXPECT_EQ(sim->grasps().size(), 1u) << "the grasp is taken and listed";
     }
     for (int k = 0; k < 50; ++k) {
