@@ -72,7 +72,6 @@ void ClothStateDisplay::reset() {
   MFDClass::reset();
   pending_.reset();
   drawn_.reset();
-  newest_drawn_ = false;
   mesh_->clear();
   mesh_built_ = false;
   rows_ = cols_ = 0;
@@ -91,7 +90,7 @@ void ClothStateDisplay::updateAppearance() {
     mesh_built_ = false;  // the colours live in the vertex buffer: rebuilt from the last message drawn
     // A paused or finished bag sends no next message: the last one drawn is drawn again, unless a newer
     // one was refused (its status stays, and the cloth keeps its colours until one is drawn).
-    if (!pending_ && newest_drawn_) pending_ = drawn_;
+    if (!pending_ && drawn_) pending_ = drawn_;
   }
   context_->queueRender();
 }
@@ -122,8 +121,7 @@ void ClothStateDisplay::update(float /*wall_dt*/, float /*ros_dt*/) {
   pending_.reset();
   // A redraw is placed where the frame is now: tf may no longer hold the old stamp (10 s of cache).
   const bool redraw = message == drawn_;
-  newest_drawn_ = draw(*message, redraw);
-  if (newest_drawn_) drawn_ = message;
+  drawn_ = draw(*message, redraw) ? message : nullptr;
 }
 
 bool ClothStateDisplay::draw(const cloth_sim::ClothState& message, bool redraw) {

@@ -57,8 +57,8 @@ class ClothStateDisplay : public rviz::MessageFilterDisplay<cloth_sim::ClothStat
   void fillMesh(const std::vector<Eigen::Vector3f>& positions_m, const std::vector<Eigen::Vector3f>& normals);
 
   cloth_sim::ClothState::ConstPtr pending_;  ///< received, not drawn yet
-  cloth_sim::ClothState::ConstPtr drawn_;    ///< the last message drawn: drawn again when a property changes
-  bool newest_drawn_ = false;                ///< the newest message handled was drawn (not refused)
+  /// The newest message, when it was drawn (null when it was refused): drawn again when a property changes.
+  cloth_sim::ClothState::ConstPtr drawn_;
   Ogre::ManualObject* mesh_ = nullptr;
   Ogre::MaterialPtr material_;
   rviz::BoolProperty* checker_property_ = nullptr;
