@@ -154,7 +154,9 @@ bool ClothNode::start(std::string* error) {
   grasp_sub_ = pnh_.subscribe(grasp_options);
   grasp_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &grasp_receive_queue_);
   grasp_spinner_->start();
-  grippers_ = std::make_unique<Grippers>(pnh_, frame_inputs_, frame_id_, [this]() -> core::Simulation& { return *simulation_; });
+  grippers_ = std::make_unique<Grippers>(
+      pnh_, frame_inputs_, frame_id_, [this]() -> core::Simulation& { return *simulation_; },
+      [this]() { return frameTime(simulation_->state().frame + 1); });
   frame_colliders_ = std::make_unique<FrameColliderInputs>(frame_inputs_, frame_id_,
                                                            [this]() -> core::Simulation& { return *simulation_; });
   // The mouse's commands join ~grasp's queue, so they are applied in order with the topic's.
