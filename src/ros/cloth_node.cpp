@@ -551,15 +551,14 @@ void ClothNode::applyGrasp(const cloth_sim::Grasp::ConstPtr& message) {
     ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp id %u: target is not finite", message->id);
     return;
   }
-  // The force in header.frame_id too: a free vector, rotated only (as ~wind's).
+  // The force in header.frame_id too: a free vector, rotated only (as ~wind's), by the target's transform.
   geometry_msgs::Vector3Stamped force;
   force.header = message->header;
   force.vector = message->force;
   geometry_msgs::PointStamped in_frame;
   geometry_msgs::Vector3Stamped force_in_frame;
   std::string why;
-  if (!frame_inputs_.express(target, frame_id_, &in_frame, &why) ||
-      !frame_inputs_.express(force, frame_id_, &force_in_frame, &why)) {
+  if (!frame_inputs_.express(target, force, frame_id_, &in_frame, &force_in_frame, &why)) {
     ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp id %u in frame '%s': %s", message->id,
                       message->header.frame_id.c_str(), why.c_str());
     return;
