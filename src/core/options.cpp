@@ -93,6 +93,26 @@ std::string indexed(const std::string& list, std::size_t index, const std::strin
   return list + "[" + std::to_string(index) + "]." + field;
 }
 
+/// One frame collider's problems, each field named `prefix` + its key ("frame_colliders[2]." in a scene,
+/// nothing for a collider on its own).
+void checkFrameCollider(const FrameCollider& c, const std::string& prefix, Problems& problems) {
+  using L = OptionLimits;
+  if (c.frame.empty() || c.frame[0] == '/' || c.frame.size() > L::kMaxTextChars) {
+    problems.fail(prefix + "frame = '" + c.frame.substr(0, kMaxQuotedSelectorChars) +
+                  "': must be a tf frame name without a leading '/', at most " + std::to_string(L::kMaxTextChars) +
+                  " characters");
+  }
+  if (c.shape != ShapeKind::kBox) problems.positive(prefix + "radius", c.radius_m, L::kMaxClothSide_m);
+  if (c.shape == ShapeKind::kCapsule) problems.inRange(prefix + "length", c.length_m, 0.0, L::kMaxClothSide_m);
+  if (c.shape == ShapeKind::kBox) {
+    for (int axis = 0; axis < 3; ++axis) {
+      problems.positive(prefix + "size[" + std::to_string(axis) + "]", c.size_m[axis], L::kMaxClothSide_m);
+    }
+  }
+  problems.finiteVector(prefix + "offset", c.offset_m, L::kMaxCoordinate_m);
+  problems.finiteVector(prefix + "rpy", c.rpy_rad, L::kMaxAngle_rad);
+}
+
 /// Peak speed of the pins' travel to pin_positions, m/s: the longest trip at the smoothstep's peak rate
 /// (ScriptedMotion::peakSpeed_m_per_s, before the pins' hooks exist).
 double pinTravelSpeed_m_per_s(const SceneOptions& o, const std::vector<int>& pinned) {
@@ -246,6 +266,12 @@ std::string exactNumberText(double value, int fewest_digits) {
   return text;
 }
 
+std::vector<std::string> validateFrameCollider(const FrameCollider& collider) {
+  Problems problems;
+  checkFrameCollider(collider, "", problems);
+  return problems.take();
+}
+
 std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   using L = OptionLimits;
   Problems problems;
@@ -396,22 +422,7 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
                   std::to_string(L::kMaxFrameColliders));
   }
   for (std::size_t i = 0; i < o.colliders.frames.size(); ++i) {
-    const FrameCollider& c = o.colliders.frames[i];
-    if (c.frame.empty() || c.frame[0] == '/' || c.frame.size() > L::kMaxTextChars) {
-      problems.fail(indexed("frame_colliders", i, "frame") + " = '" + c.frame.substr(0, kMaxQuotedSelectorChars) +
-                    "': must be a tf frame name without a leading '/', at most " + std::to_string(L::kMaxTextChars) +
-                    " characters");
-    }
-    if (c.shape != ShapeKind::kBox) problems.positive(indexed("frame_colliders", i, "radius"), c.radius_m, L::kMaxClothSide_m);
-    if (c.shape == ShapeKind::kCapsule) problems.inRange(indexed("frame_colliders", i, "length"), c.length_m, 0.0, L::kMaxClothSide_m);
-    if (c.shape == ShapeKind::kBox) {
-      for (int axis = 0; axis < 3; ++axis) {
-        problems.positive(indexed("frame_colliders", i, "size") + "[" + std::to_string(axis) + "]", c.size_m[axis],
-                          L::kMaxClothSide_m);
-      }
-    }
-    problems.finiteVector(indexed("frame_colliders", i, "offset"), c.offset_m, L::kMaxCoordinate_m);
-    problems.finiteVector(indexed("frame_colliders", i, "rpy"), c.rpy_rad, L::kMaxAngle_rad);
+    checkFrameCollider(o.colliders.frames[i], "frame_colliders[" + std::to_string(i) + "].", problems);
   }
   problems.inRange("contact_depth", o.contact.depth_m, 0.0, L::kMaxContactDepth_m);
   problems.inRange("restitution", o.contact.restitution, 0.0, 1.0);

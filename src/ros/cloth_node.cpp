@@ -154,7 +154,9 @@ bool ClothNode::start(std::string* error) {
   grasp_sub_ = pnh_.subscribe(grasp_options);
   grasp_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &grasp_receive_queue_);
   grasp_spinner_->start();
-  grippers_ = std::make_unique<Grippers>(pnh_, frame_inputs_, frame_id_, [this]() -> core::Simulation& { return *simulation_; });
+  grippers_ = std::make_unique<Grippers>(
+      pnh_, frame_inputs_, frame_id_, [this]() -> core::Simulation& { return *simulation_; },
+      [this]() { return frameTime(simulation_->state().frame + 1); });
   frame_colliders_ = std::make_unique<FrameColliderInputs>(frame_inputs_, frame_id_,
                                                            [this]() -> core::Simulation& { return *simulation_; });
   // The mouse's commands join ~grasp's queue, so they are applied in order with the topic's.
@@ -549,15 +551,14 @@ void ClothNode::applyGrasp(const cloth_sim::Grasp::ConstPtr& message) {
     ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp id %u: target is not finite", message->id);
     return;
   }
-  // The force in header.frame_id too: a free vector, rotated only (as ~wind's).
+  // The force in header.frame_id too: a free vector, rotated only (as ~wind's), by the target's transform.
   geometry_msgs::Vector3Stamped force;
   force.header = message->header;
   force.vector = message->force;
   geometry_msgs::PointStamped in_frame;
   geometry_msgs::Vector3Stamped force_in_frame;
   std::string why;
-  if (!frame_inputs_.express(target, frame_id_, &in_frame, &why) ||
-      !frame_inputs_.express(force, frame_id_, &force_in_frame, &why)) {
+  if (!frame_inputs_.express(target, force, frame_id_, &in_frame, &force_in_frame, &why)) {
     ROS_WARN_THROTTLE(kWarnThrottle_s, "cloth_node: dropped ~grasp id %u in frame '%s': %s", message->id,
                       message->header.frame_id.c_str(), why.c_str());
     return;

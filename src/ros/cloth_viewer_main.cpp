@@ -78,13 +78,15 @@ class ClothViewer {
       static_broadcaster_.sendTransform(cloth_sim::identityTransform(parent_frame, frame_id, ros::Time::now()));
       ROS_INFO("cloth_viewer: tf %s -> %s (static identity)", parent_frame.c_str(), frame_id.c_str());
     }
-    if (!publish_mesh_) return true;
+    // Checked with or without a mesh to publish: a bad value is a mistake either way (and would bite when the
+    // mesh is switched back on).
     if (!std::isfinite(mesh_rate_hz) || mesh_rate_hz <= 0.0 ||
         mesh_rate_hz > cloth_sim::core::OptionLimits::kMaxFrameRateHz) {
       *error = "parameter ~mesh_rate = " + std::to_string(mesh_rate_hz) + ": must be in (0, " +
                std::to_string(cloth_sim::core::OptionLimits::kMaxFrameRateHz) + "] Hz";
       return false;
     }
+    if (!publish_mesh_) return true;
     mesh_schedule_ = cloth_sim::MeshSchedule(mesh_rate_hz);
     mesh_pub_ = pnh.advertise<visualization_msgs::Marker>(mesh_topic, 2);
     state_sub_ = nh.subscribe(state_topic, kStateQueue, &ClothViewer::onState, this);

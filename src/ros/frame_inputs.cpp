@@ -11,6 +11,17 @@ core::Pose toPose(const geometry_msgs::TransformStamped& transform) {
   return pose;
 }
 
+bool FrameInputs::latestTransform(const std::string& frame, const std::string& source,
+                                  geometry_msgs::TransformStamped* transform, std::string* why) const {
+  try {
+    *transform = buffer_.lookupTransform(frame, source, ros::Time(0));
+    return true;
+  } catch (const tf2::TransformException& e) {
+    *why = e.what();
+    return false;
+  }
+}
+
 bool FrameInputs::poseAtOrNewest(const std::string& child, const std::string& frame, const ros::Time& time,
                                  core::Pose* pose, ros::Time* stamp, std::string* why) const {
   try {

@@ -5,6 +5,7 @@
 
 #include <geometry_msgs/WrenchStamped.h>
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <utility>
@@ -28,8 +29,12 @@ std::string particleList(const std::vector<int>& particles) {
 }  // namespace
 
 Grippers::Grippers(ros::NodeHandle& private_handle, const FrameInputs& frames, std::string world_frame,
-                   std::function<core::Simulation&()> simulation)
-    : pnh_(private_handle), frames_(frames), world_frame_(std::move(world_frame)), simulation_(std::move(simulation)) {
+                   std::function<core::Simulation&()> simulation, std::function<ros::Time()> next_frame_end)
+    : pnh_(private_handle),
+      frames_(frames),
+      world_frame_(std::move(world_frame)),
+      simulation_(std::move(simulation)),
+      next_frame_end_(std::move(next_frame_end)) {
   attach_srv_ = pnh_.advertiseService(kAttachService, &Grippers::onAttach, this);
   detach_srv_ = pnh_.advertiseService(kDetachService, &Grippers::onDetach, this);
 }
@@ -59,11 +64,14 @@ bool Grippers::onAttach(cloth_sim::Attach::Request& request, cloth_sim::Attach::
     return true;
   }
   // A frame that stopped being published would be called lost by the first frame after the attach (and the
-  // particles held still where it was last seen): refused now, while the client can still do something.
-  if (const double age_s = secondsBetween(stamp, ros::Time::now()); !stamp.isZero() && age_s > kLostAfter_s) {
+  // particles held still where it was last seen): refused now, while the client can still do something. Its
+  // age is taken where that frame will take it, at the next frame's end (a transform 0.49 s old now is 0.51
+  // s old there); while paused that time is past and the frame's age when the node runs again unknown, so now.
+  const ros::Time first_look = std::max(ros::Time::now(), next_frame_end_());
+  if (const double age_s = secondsBetween(stamp, first_look); !stamp.isZero() && age_s > kLostAfter_s) {
     std::ostringstream message;
     message << name << ": the newest transform of frame '" << request.frame << "' is " << age_s
-            << " s old (a gripper follows a frame at most " << kLostAfter_s << " s stale)";
+            << " s old at the next frame's end (a gripper follows a frame at most " << kLostAfter_s << " s stale)";
     response.message = message.str();
     return true;
   }

@@ -38,15 +38,9 @@ std::map<std::string, std::size_t> collisionElementsPerLink(const std::string& u
 /// Why the collider of `link`'s collision `index` is out of the scenes' ranges, or "": the core's own checks
 /// of one frame collider, named by the link instead of an index into frame_colliders.
 std::string urdfColliderProblem(const core::FrameCollider& collider, const std::string& link, std::size_t index) {
-  core::SceneOptions options;
-  options.colliders.frames = {collider};
-  const std::string own = "frame_colliders[0]";
   std::string problems;
-  for (const std::string& problem : core::validateSceneOptions(options)) {
-    if (problem.compare(0, own.size(), own) != 0) continue;  // only the collider's own fields
-    std::string field = problem.substr(own.size());
-    if (!field.empty() && field[0] == '.') field.erase(0, 1);
-    problems += (problems.empty() ? "" : "; ") + field;
+  for (const std::string& problem : core::validateFrameCollider(collider)) {
+    problems += (problems.empty() ? "" : "; ") + problem;
   }
   if (problems.empty()) return "";
   return "URDF link '" + link + "' collision " + std::to_string(index) + ": " + problems;

@@ -177,7 +177,13 @@ int drape(const ValidateOptions& options) {
   out << "{\"test\": \"drape\", \"material\": \"" << options.material << "\", \"bend_model\": \""
       << core::bendModelName(options.bend_model) << "\", \"compression_model\": \""
       << core::compressionModelName(options.compression_model) << "\", \"side\": " << options.side
-      << ", \"seconds\": " << number(options.seconds) << ", \"sag_m\": " << number(hook_z - top_middle_z)
+      << ", \"seconds\": " << number(options.seconds) << ", \"settings\": {";
+  // The --set keys as typed (in order; a key set twice shows twice, the last one counted), so that a line
+  // says which run it is.
+  for (std::size_t k = 0; k < options.settings.size(); ++k) {
+    out << (k == 0 ? "" : ", ") << jsonQuoted(options.settings[k].key) << ": " << jsonQuoted(options.settings[k].value);
+  }
+  out << "}, \"sag_m\": " << number(hook_z - top_middle_z)
       << ", \"fold_depth_m\": " << number(end.row(1).maxCoeff() - end.row(1).minCoeff())
       << ", \"lowest_m\": " << number(hook_z - end.row(2).minCoeff())
       << ", \"last_second_motion_m\": " << number((end - second_before).colwise().norm().maxCoeff())

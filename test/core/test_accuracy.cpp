@@ -357,6 +357,9 @@ TEST(ClothBenchValidate, TheDrapeTakesSceneKeysAndTheSagFollowsThem) {
   // way in (5 of 20 cm); lowered in 0.5 s they are there, and the top edge has more slack to sag with
   // (measured: 3.5 cm against 1.1 cm).
   EXPECT_EQ(sagOf(same), sagOf(scene_own)) << same << "\n" << scene_own;
+  // Each line names its settings (they were left out: two lines of different runs read the same).
+  EXPECT_NE(scene_own.find("\"settings\": {}, "), std::string::npos) << scene_own;
+  EXPECT_NE(faster.find("\"settings\": {\"pin_travel_time\": \"0.5\"}, "), std::string::npos) << faster;
   EXPECT_GT(sagOf(faster), sagOf(scene_own) + 0.01) << faster << "\n" << scene_own;
   expectRefused({
       {"--validate cantilever --set pin_travel_time=3", "--set: only the drape is a scene file (cantilever builds its own)"},

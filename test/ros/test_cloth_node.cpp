@@ -10,7 +10,7 @@
 //   sim_time_twins.test SimTimeTwins.*                       (two node processes on one /clock)
 //   sim_time_rewind.test SimTimeRewind.*                     (/clock sent back after leaps, a fresh node)
 //   sim_time_tf.test  SimTimeTf.*                              (ball under /use_sim_time: its spheres' tf, colliders)
-//   sim_time_late.test SimTimeLate.*                         (/clock past 2^31 s, and a leap of more than 2^31 s)
+//   sim_time_late.test SimTimeLate.*                         (/clock past 2^31 s, leaps, ~attach ages)
 //   bad_params.test   BadParams.*                              (no node: the tests start it themselves)
 // Every wait is a condition with a wall-clock deadline; no test sleeps to "let things settle".
 #include "test_helpers.h"
@@ -1644,6 +1644,50 @@ TEST(SimTimeLate, ALeapOfMoreThan2To31SecondsIsCountedFromTheNewTime) {
                            images_after);
   }
   EXPECT_TRUE(image) << "the camera rendered nothing after the frames came back at the new time";
+}
+
+// A review's: ~attach measured a frame's age at the service call, the gripper's first frame at that frame's
+// end, so a transform 0.49 s old was taken and called lost 0.02 s later (its particles held where it was
+// seen). Under /clock both ages are exact: 0.49 s now is 0.51 s at the next frame's end, refused; 0.47 s is
+// taken.
+TEST(SimTimeLate, AttachTakesAFramesAgeAtTheNextFramesEnd) {
+  ASSERT_TRUE(ros::Time::isSimTime()) << "sim_time_late.test must set /use_sim_time";
+  ros::NodeHandle nh;
+  Monitor<ClothState> states(nh, nodeTopic("state"));
+  ClockDriver clock(nh);
+  tf2_ros::TransformBroadcaster broadcaster;
+  ASSERT_TRUE(waitUntil([&] { return states.publisherCount() >= 1; }, 15.0)) << "node not publishing ~state";
+  std::uint64_t index = 0;
+  const ros::Time now(k2To31_s + 5000u, 0);
+  sendFrames(broadcaster, now);
+  ASSERT_TRUE(clock.settleAt(now, states, &index)) << "no state stamped with " << now;
+  const auto attachStale = [&](std::uint32_t id, const std::string& frame, double age_s) {
+    geometry_msgs::TransformStamped transform;
+    transform.header.stamp = now - ros::Duration(age_s);
+    transform.header.frame_id = "world";
+    transform.child_frame_id = frame;
+    transform.transform.translation.z = 1.5;
+    transform.transform.rotation.w = 1.0;
+    cloth_sim::Attach attach;
+    attach.request.id = id;
+    attach.request.frame = frame;
+    attach.request.particles = {id + 4};  // gripper 1 holds 4 and 5
+    // The transform reaches the node's listener some time after it is sent; the clock stays at `now`.
+    const auto deadline = deadlineIn(15.0);
+    while (true) {
+      broadcaster.sendTransform(transform);
+      EXPECT_TRUE(callService(nodeTopic("attach"), attach)) << "~attach does not answer";
+      if (attach.response.message.find("unknown frame") == std::string::npos || Clock::now() >= deadline) {
+        return attach.response;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+  };
+  const auto refused = attachStale(3, "late_hand", 0.49);
+  EXPECT_FALSE(refused.success) << refused.message;
+  EXPECT_NE(refused.message.find("is 0.51 s old at the next frame's end"), std::string::npos) << refused.message;
+  const auto taken = attachStale(4, "recent_hand", 0.47);
+  EXPECT_TRUE(taken.success) << taken.message;
 }
 
 // ---- 9. Bad parameters make the node exit (bad_params.test) ---------------------------------------

@@ -219,7 +219,7 @@ class Grippers(unittest.TestCase):
         # A frame whose newest transform is older than the node follows (it stopped being published) is refused
         # naming its age; it was taken, and the next frame called the gripper lost.
         stale = self.attach_stale(1, "stale", top, age_s=3.0)
-        self.refused(stale, "s old (a gripper follows a frame at most 0.5 s stale)")
+        self.refused(stale, "s old at the next frame's end (a gripper follows a frame at most 0.5 s stale)")
         age = re.search(r"the newest transform of frame 'stale' is ([0-9.]+) s old", stale.message)
         self.assertIsNotNone(age, stale.message)
         self.assertGreaterEqual(float(age.group(1)), 3.0, stale.message)

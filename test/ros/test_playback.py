@@ -140,17 +140,20 @@ class Playback(unittest.TestCase):
         # ros::param's defaults used to take over in silence: a mesh_rate of 'abc' drew at 50 Hz, a
         # publish_mesh of 0 still drew, an empty state_topic subscribed to '/'; a topic name ROS refuses
         # (9bad, a%b, ~state) aborted the viewer (exit 134).
+        # A negative mesh_rate beside publish_mesh:=false was taken (checked only when a mesh was published).
         # A viewer of its own name for each: a private parameter set from the command line stays on the master.
-        for k, (argument, named) in enumerate((("_mesh_rate:=abc", "~mesh_rate"), ("_publish_mesh:=0", "~publish_mesh"),
-                                               ("_state_topic:=", "~state_topic"), ("_frame_id:=5", "~frame_id"),
-                                               ("_state_topic:=9bad", "~state_topic"),
-                                               ("_state_topic:=~state", "~state_topic"),
-                                               ("_mesh_topic:=a%b", "~mesh_topic"))):
-            viewer = subprocess.run(["rosrun", "cloth_sim", "cloth_viewer", "__name:=bad_viewer_%d" % k, argument],
+        for k, (arguments, named) in enumerate(((["_mesh_rate:=abc"], "~mesh_rate"),
+                                                (["_publish_mesh:=0"], "~publish_mesh"),
+                                                (["_state_topic:="], "~state_topic"), (["_frame_id:=5"], "~frame_id"),
+                                                (["_state_topic:=9bad"], "~state_topic"),
+                                                (["_state_topic:=~state"], "~state_topic"),
+                                                (["_mesh_topic:=a%b"], "~mesh_topic"),
+                                                (["_mesh_rate:=-5", "_publish_mesh:=false"], "~mesh_rate"))):
+            viewer = subprocess.run(["rosrun", "cloth_sim", "cloth_viewer", "__name:=bad_viewer_%d" % k] + arguments,
                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=DEADLINE_S)
             output = viewer.stdout.decode(errors="replace")
-            self.assertEqual(viewer.returncode, 1, argument + " was taken: " + output[-1000:])
-            self.assertIn(named, output, argument)
+            self.assertEqual(viewer.returncode, 1, " ".join(arguments) + " was taken: " + output[-1000:])
+            self.assertIn(named, output, " ".join(arguments))
 
     def test_a_recording_without_tf_still_has_the_fixed_frame(self):
         # The bag written here holds no /tf and no /tf_static: the frame can only come from the launch.

@@ -248,6 +248,10 @@ std::string exactNumberText(double value, int fewest_digits);
 /// "rows = 1: must be in [2, 512]". Empty when the options are valid.
 std::vector<std::string> validateSceneOptions(const SceneOptions& options);
 
+/// The problems of one frame collider on its own (a URDF link's), each naming its field as a scene's
+/// frame_colliders entry does without the entry's index ("radius = -1: must be in (0, 100]").
+std::vector<std::string> validateFrameCollider(const FrameCollider& collider);
+
 /// Whether two scene options build the same cloth grid (rows, columns, sides, pose, pins and their
 /// motion, mass, whether a material sets it, outline): a retune or a restored snapshot must keep the grid.
 bool sameClothGrid(const SceneOptions& a, const SceneOptions& b);

@@ -28,17 +28,35 @@ class FrameInputs {
   /// *why, tf's reason, when tf cannot: the caller drops the message.
   template <typename Stamped>
   bool express(const Stamped& message, const std::string& frame, Stamped* out, std::string* why) const {
-    if (message.header.frame_id.empty() || message.header.frame_id == frame) {
+    if (inFrame(message.header.frame_id, frame)) {
       *out = message;
       return true;
     }
-    try {
-      tf2::doTransform(message, *out, buffer_.lookupTransform(frame, message.header.frame_id, ros::Time(0)));
-      return true;
-    } catch (const tf2::TransformException& e) {
-      *why = e.what();
+    geometry_msgs::TransformStamped transform;
+    if (!latestTransform(frame, message.header.frame_id, &transform, why)) return false;
+    tf2::doTransform(message, *out, transform);
+    return true;
+  }
+
+  /// Two messages in one header's frame (a grasp's target and force) expressed as express() does, through
+  /// one transform: two lookups could take a newer transform for the second than for the first.
+  template <typename First, typename Second>
+  bool express(const First& first, const Second& second, const std::string& frame, First* first_out,
+               Second* second_out, std::string* why) const {
+    if (first.header.frame_id != second.header.frame_id) {
+      *why = "'" + first.header.frame_id + "' and '" + second.header.frame_id + "' are not one frame";
       return false;
     }
+    if (inFrame(first.header.frame_id, frame)) {
+      *first_out = first;
+      *second_out = second;
+      return true;
+    }
+    geometry_msgs::TransformStamped transform;
+    if (!latestTransform(frame, first.header.frame_id, &transform, why)) return false;
+    tf2::doTransform(first, *first_out, transform);
+    tf2::doTransform(second, *second_out, transform);
+    return true;
   }
 
   /// The pose of `child` in `frame` at `time`, or, when tf has nothing that late yet (a publisher a little
@@ -48,6 +66,12 @@ class FrameInputs {
                       ros::Time* stamp, std::string* why) const;
 
  private:
+  /// A message in `source` is already in `frame` (no frame named: the simulation's own).
+  static bool inFrame(const std::string& source, const std::string& frame) { return source.empty() || source == frame; }
+  /// tf's latest transform taking `source` coordinates to `frame`'s into *transform; false with tf's *why.
+  bool latestTransform(const std::string& frame, const std::string& source, geometry_msgs::TransformStamped* transform,
+                       std::string* why) const;
+
   const tf2_ros::Buffer& buffer_;
 };
 

@@ -29,9 +29,11 @@ class Grippers {
   /// particles stay where it was last seen and the diagnostics WARN naming it, s.
   static constexpr double kLostAfter_s = 0.5;
 
-  /// `simulation` returns the running simulation (the node replaces it on ~load_scene).
+  /// `simulation` returns the running simulation (the node replaces it on ~load_scene). `next_frame_end`
+  /// returns the time the node's next frame ends, the time its first beforeFrame will look a new gripper's
+  /// frame up at (while paused, a time already past).
   Grippers(ros::NodeHandle& private_handle, const FrameInputs& frames, std::string world_frame,
-           std::function<core::Simulation&()> simulation);
+           std::function<core::Simulation&()> simulation, std::function<ros::Time()> next_frame_end);
 
   /// Before a frame that ends at `frame_end`: moves each gripper to its frame's pose at that time (or the
   /// newest tf has, if tf has none that late yet).
@@ -63,6 +65,7 @@ class Grippers {
   const FrameInputs& frames_;
   std::string world_frame_;
   std::function<core::Simulation&()> simulation_;
+  std::function<ros::Time()> next_frame_end_;
   ros::ServiceServer attach_srv_, detach_srv_;
   std::map<std::uint32_t, Held> held_;
 };
