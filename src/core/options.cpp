@@ -65,7 +65,7 @@ class Problems {
   void finiteVector(const std::string& field, const Eigen::Vector3d& value, double bound) {
     if (value.allFinite() && value.cwiseAbs().maxCoeff() <= bound) return;
     std::ostringstream out;
-    out << field << " = [" << value.transpose() << "]: each component must be finite and within +-" << bound;
+    out << field << " = " << vectorText(value) << ": each component must be finite and within +-" << bound;
     list_.push_back(out.str());
   }
 
@@ -73,7 +73,7 @@ class Problems {
     if (value.allFinite() && std::abs(value.norm() - 1.0) <= kUnitTolerance) return;
     std::ostringstream out;
     // The length and the tolerance are named: [0, 0.7071, 0.7071] is 0.99999 long, and that is refused.
-    out << field << " = [" << value.transpose() << "]: must be a unit vector (its length is "
+    out << field << " = " << vectorText(value) << ": must be a unit vector (its length is "
         << std::setprecision(kLengthDigits) << value.norm() << "; 1 within " << kUnitTolerance
         << ": give more digits)";
     list_.push_back(out.str());
@@ -365,7 +365,7 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   problems.finiteVector("wind", o.wind.velocity_m_per_s, L::kMaxWindSpeed_m_per_s);
   if (o.wind.velocity_m_per_s.allFinite() && !windVelocityProblem(o.wind.velocity_m_per_s).empty()) {
     std::ostringstream out;
-    out << "wind = [" << o.wind.velocity_m_per_s.transpose() << "]: " << windVelocityProblem(o.wind.velocity_m_per_s);
+    out << "wind = " << vectorText(o.wind.velocity_m_per_s) << ": " << windVelocityProblem(o.wind.velocity_m_per_s);
     problems.fail(out.str());
   }
   problems.inRange("wind_coefficient", o.wind.paper_coefficient_N_s_per_m, 0.0, L::kMaxWindCoefficient);
