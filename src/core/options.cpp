@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <iomanip>
 #include <limits>
 #include <set>
 #include <sstream>
@@ -27,6 +28,8 @@ bool sameOutline(const OutlineOptions& a, const OutlineOptions& b) {
 
 /// How far from unit length an axis or normal may be, and how far from orthogonal two axes may be.
 constexpr double kUnitTolerance = 1e-6;
+/// Significant digits of a refused vector's length: enough to show how far from 1 it is.
+constexpr int kLengthDigits = 10;
 /// Most characters of a pin selector quoted in an error (it may come from any file given to ~load_scene).
 constexpr std::size_t kMaxQuotedSelectorChars = 32;
 
@@ -62,14 +65,17 @@ class Problems {
   void finiteVector(const std::string& field, const Eigen::Vector3d& value, double bound) {
     if (value.allFinite() && value.cwiseAbs().maxCoeff() <= bound) return;
     std::ostringstream out;
-    out << field << " = [" << value.transpose() << "]: each component must be finite and within +-" << bound;
+    out << field << " = " << vectorText(value) << ": each component must be finite and within +-" << bound;
     list_.push_back(out.str());
   }
 
   void unitVector(const std::string& field, const Eigen::Vector3d& value) {
     if (value.allFinite() && std::abs(value.norm() - 1.0) <= kUnitTolerance) return;
     std::ostringstream out;
-    out << field << " = [" << value.transpose() << "]: must be a unit vector";
+    // The length and the tolerance are named: [0, 0.7071, 0.7071] is 0.99999 long, and that is refused.
+    out << field << " = " << vectorText(value) << ": must be a unit vector (its length is "
+        << std::setprecision(kLengthDigits) << value.norm() << "; 1 within " << kUnitTolerance
+        << ": give more digits)";
     list_.push_back(out.str());
   }
 
@@ -102,12 +108,12 @@ void checkFrameCollider(const FrameCollider& c, const std::string& prefix, Probl
                   "': must be a tf frame name without a leading '/', at most " + std::to_string(L::kMaxTextChars) +
                   " characters");
   }
-  if (c.shape != ShapeKind::kBox) problems.positive(prefix + "radius", c.radius_m, L::kMaxClothSide_m);
-  if (c.shape == ShapeKind::kCapsule) problems.inRange(prefix + "length", c.length_m, 0.0, L::kMaxClothSide_m);
-  if (c.shape == ShapeKind::kBox) {
-    for (int axis = 0; axis < 3; ++axis) {
-      problems.positive(prefix + "size[" + std::to_string(axis) + "]", c.size_m[axis], L::kMaxClothSide_m);
-    }
+  // Every field is checked whatever the shape: one the shape does not use is still a mistake when it is
+  // out of range (a box given radius -1), and the defaults it keeps otherwise are in range.
+  problems.positive(prefix + "radius", c.radius_m, L::kMaxClothSide_m);
+  problems.inRange(prefix + "length", c.length_m, 0.0, L::kMaxClothSide_m);
+  for (int axis = 0; axis < 3; ++axis) {
+    problems.positive(prefix + "size[" + std::to_string(axis) + "]", c.size_m[axis], L::kMaxClothSide_m);
   }
   problems.finiteVector(prefix + "offset", c.offset_m, L::kMaxCoordinate_m);
   problems.finiteVector(prefix + "rpy", c.rpy_rad, L::kMaxAngle_rad);
@@ -147,15 +153,19 @@ void validateCameras(const std::vector<CameraOptions>& cameras, Problems& proble
   for (std::size_t i = 0; i < cameras.size(); ++i) {
     const CameraOptions& c = cameras[i];
     const std::string shown_name = c.name.substr(0, kMaxQuotedSelectorChars);
-    if (!isTopicName(c.name)) {
+    // Names and frames are bounded as every string a scene sets is (OptionLimits::kMaxTextChars): a name
+    // becomes five topic names, and both are written to state files, which refuse longer strings.
+    if (!isTopicName(c.name) || c.name.size() > OptionLimits::kMaxTextChars) {
       problems.fail(indexed("cameras", i, "name") + " = '" + shown_name +
-                    "': must be a letter followed by letters, digits or '_' (it names the camera's topics)");
+                    "': must be a letter followed by letters, digits or '_' (it names the camera's topics), at most " +
+                    std::to_string(OptionLimits::kMaxTextChars) + " characters");
     } else if (!names.insert(c.name).second) {
       problems.fail(indexed("cameras", i, "name") + " = '" + shown_name + "': another camera has this name");
     }
-    if (c.frame.empty() || c.frame[0] == '/') {
+    if (c.frame.empty() || c.frame[0] == '/' || c.frame.size() > OptionLimits::kMaxTextChars) {
       problems.fail(indexed("cameras", i, "frame") + " = '" + c.frame.substr(0, kMaxQuotedSelectorChars) +
-                    "': must be a non-empty tf frame name without a leading '/'");
+                    "': must be a non-empty tf frame name without a leading '/', at most " +
+                    std::to_string(OptionLimits::kMaxTextChars) + " characters");
     }
     problems.inRange(indexed("cameras", i, "width"), c.width, 1, C::kMaxImageSide);
     problems.inRange(indexed("cameras", i, "height"), c.height, 1, C::kMaxImageSide);
@@ -355,7 +365,7 @@ std::vector<std::string> validateSceneOptions(const SceneOptions& o) {
   problems.finiteVector("wind", o.wind.velocity_m_per_s, L::kMaxWindSpeed_m_per_s);
   if (o.wind.velocity_m_per_s.allFinite() && !windVelocityProblem(o.wind.velocity_m_per_s).empty()) {
     std::ostringstream out;
-    out << "wind = [" << o.wind.velocity_m_per_s.transpose() << "]: " << windVelocityProblem(o.wind.velocity_m_per_s);
+    out << "wind = " << vectorText(o.wind.velocity_m_per_s) << ": " << windVelocityProblem(o.wind.velocity_m_per_s);
     problems.fail(out.str());
   }
   problems.inRange("wind_coefficient", o.wind.paper_coefficient_N_s_per_m, 0.0, L::kMaxWindCoefficient);

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -83,7 +84,23 @@ T readScalar(const YAML::Node& node, const char* expected, std::initializer_list
   }
 }
 
-double readDouble(const YAML::Node& node) { return readScalar<double>(node, "a number", {"float", "int"}); }
+double readDouble(const YAML::Node& node) {
+  try {
+    return readScalar<double>(node, "a number", {"float", "int"});
+  } catch (const WrongType&) {
+    // A number no double holds (1e400, 1e-400) is still a number: say so rather than "expected a number".
+    if (node.IsScalar() && tagAllows(node, {"float", "int"})) {
+      const std::string& text = node.Scalar();
+      char* end = nullptr;
+      errno = 0;
+      std::strtod(text.c_str(), &end);
+      if (end != text.c_str() && *end == '\0' && errno == ERANGE) {
+        throw WrongType{"a number a double holds (at most about 1.8e308 in size, and 0 or at least 2.2e-308)"};
+      }
+    }
+    throw;
+  }
+}
 int readInt(const YAML::Node& node) {
   try {
     return readScalar<int>(node, "an integer", {"int"});
@@ -98,8 +115,19 @@ bool readBool(const YAML::Node& node) { return readScalar<bool>(node, "true or f
 std::string readString(const YAML::Node& node) { return readScalar<std::string>(node, "a string", {"str"}); }
 
 Eigen::Vector3d readVector(const YAML::Node& node) {
-  if (!node.IsSequence() || node.size() != 3) throw WrongType{"a list of 3 numbers [x, y, z]"};
-  return Eigen::Vector3d(readDouble(node[0]), readDouble(node[1]), readDouble(node[2]));
+  const std::string expected = "a list of 3 numbers [x, y, z]";
+  if (!node.IsSequence() || node.size() != 3) throw WrongType{expected};
+  Eigen::Vector3d vector;
+  for (int i = 0; i < 3; ++i) {
+    try {
+      vector[i] = readDouble(node[i]);
+    } catch (const WrongType& wrong) {
+      // Which of the three, and what it should be.
+      throw WrongType{expected + " (its [" + std::to_string(i) + "] = " + describe(node[i]) + " is not " +
+                      wrong.expected + ")"};
+    }
+  }
+  return vector;
 }
 
 std::vector<std::string> readPins(const YAML::Node& node) {
@@ -211,28 +239,62 @@ Eigen::Vector2d readPoint2(const YAML::Node& node, const char* expected) {
   return Eigen::Vector2d(readDouble(node[0]), readDouble(node[1]));
 }
 
-/// `outline`: none, {circle: {center: [u, v], radius: r}} or {polygon: [[u, v], ...]}.
+/// `outline`: none, {circle: {center: [u, v], radius: r}} or {polygon: [[u, v], ...]}. Each mistake is
+/// named (an extra or missing key, a key twice, a corner of three numbers), not only the form expected.
 OutlineOptions readOutline(const YAML::Node& node) {
-  const char* expected = "none, {circle: {center: [u, v], radius: r}} or {polygon: [[u, v], [u, v], [u, v], ...]}";
+  const std::string expected =
+      "none, {circle: {center: [u, v], radius: r}} or {polygon: [[u, v], [u, v], [u, v], ...]}";
+  const auto wrong = [&](const std::string& why) { return WrongType{expected + " (" + why + ")"}; };
   OutlineOptions outline;
   if (node.IsScalar()) {
-    if (readScalar<std::string>(node, expected, {"str"}) != "none") throw WrongType{expected};
+    if (readScalar<std::string>(node, expected.c_str(), {"str"}) != "none") throw wrong("got " + describe(node));
     return outline;
   }
-  if (!node.IsMap() || node.size() != 1) throw WrongType{expected};
-  if (node["circle"]) {
+  if (!node.IsMap()) throw wrong("got " + describe(node));
+  // The map's keys as written (yaml-cpp keeps a key given twice as two entries).
+  const auto keysOf = [&](const YAML::Node& map, const std::vector<std::string>& allowed) {
+    std::set<std::string> keys;
+    for (const auto& field : map) {
+      const std::string name = field.first.IsScalar() ? field.first.Scalar() : std::string();
+      if (std::find(allowed.begin(), allowed.end(), name) == allowed.end()) {
+        throw wrong("the key " + quoted(name) + " is not one of them");
+      }
+      if (!keys.insert(name).second) throw wrong("'" + name + "' twice");
+    }
+    return keys;
+  };
+  const std::set<std::string> shapes = keysOf(node, {"circle", "polygon"});
+  if (shapes.size() != 1) throw wrong("one of circle or polygon, not both");
+  if (shapes.count("circle") != 0) {
     const YAML::Node circle = node["circle"];
-    if (!circle.IsMap() || circle.size() != 2 || !circle["center"] || !circle["radius"]) throw WrongType{expected};
+    if (!circle.IsMap()) throw wrong("circle is " + describe(circle));
+    const std::set<std::string> keys = keysOf(circle, {"center", "radius"});
+    for (const char* key : {"center", "radius"}) {
+      if (keys.count(key) == 0) throw wrong("the circle has no " + std::string(key));
+    }
     outline.shape = OutlineOptions::Shape::kCircle;
-    outline.center_m = readPoint2(circle["center"], expected);
-    outline.radius_m = readDouble(circle["radius"]);
-  } else if (node["polygon"]) {
-    const YAML::Node polygon = node["polygon"];
-    if (!polygon.IsSequence()) throw WrongType{expected};
-    outline.shape = OutlineOptions::Shape::kPolygon;
-    for (const YAML::Node& corner : polygon) outline.vertices_m.push_back(readPoint2(corner, expected));
+    try {
+      outline.center_m = readPoint2(circle["center"], "[u, v]");
+    } catch (const WrongType&) {
+      throw wrong("the circle's center is " + describe(circle["center"]) + ", not [u, v] (two numbers)");
+    }
+    try {
+      outline.radius_m = readDouble(circle["radius"]);
+    } catch (const WrongType& bad) {
+      throw wrong("the circle's radius is " + describe(circle["radius"]) + ", not " + bad.expected);
+    }
   } else {
-    throw WrongType{expected};
+    const YAML::Node polygon = node["polygon"];
+    if (!polygon.IsSequence()) throw wrong("polygon is " + describe(polygon));
+    outline.shape = OutlineOptions::Shape::kPolygon;
+    for (std::size_t i = 0; i < polygon.size(); ++i) {
+      const YAML::Node corner = polygon[i];
+      try {
+        outline.vertices_m.push_back(readPoint2(corner, "[u, v]"));
+      } catch (const WrongType&) {
+        throw wrong("corner [" + std::to_string(i) + "] is " + describe(corner) + ", not [u, v] (two numbers)");
+      }
+    }
   }
   return outline;
 }
@@ -410,6 +472,20 @@ std::map<std::string, Setter> makeSetters() {
   s["texture"] = [](const YAML::Node& n, SceneOptions& o) { o.texture = readString(n); };
   s["cameras"] = [](const YAML::Node& n, SceneOptions& o) { o.cameras = readCameras(n); };
   s["frame_colliders"] = [](const YAML::Node& n, SceneOptions& o) {
+    // An entry without `shape` is a sphere: one giving a box's size or a capsule's length most likely forgot
+    // its shape (it ran as a 5 cm ball). Refused; an entry that names its shape may carry every field (a
+    // state file writes them all).
+    for (std::size_t i = 0; n.IsSequence() && i < n.size(); ++i) {
+      const YAML::Node entry = n[i];
+      if (!entry.IsMap() || entry["shape"]) continue;
+      for (const char* field : {"size", "length"}) {
+        if (entry[field]) {
+          throw WrongType{"maps that give their shape with " + std::string(field) + " ([" + std::to_string(i) +
+                          "] has " + field + " but no shape, so it would be a sphere: give shape: " +
+                          (std::string(field) == "size" ? "box" : "capsule") + ")"};
+        }
+      }
+    }
     o.colliders.frames = readList<FrameCollider>(
         n, {"frame", "shape", "radius", "length", "size", "offset", "rpy"},
         [](const std::string& f, const YAML::Node& v, FrameCollider& c) {
@@ -537,7 +613,20 @@ bool loadSceneFile(const std::string& path, SceneOptions* options, std::vector<s
   }
   YAML::Node root;
   try {
-    root = YAML::Load(text);
+    // Every document is read: YAML::Load takes the first and drops the rest unread, so a second document
+    // (a stray `---`) lost its keys and even its syntax errors in silence. Empty documents (a leading or
+    // trailing `---`) are no keys; more than one with keys is refused, not merged.
+    int documents_with_keys = 0;
+    for (const YAML::Node& document : YAML::LoadAll(text)) {
+      if (document.IsNull()) continue;
+      ++documents_with_keys;
+      root = document;
+    }
+    if (documents_with_keys > 1) {
+      errors->push_back(source + ": " + std::to_string(documents_with_keys) +
+                        " YAML documents (separated by ---): a scene file is one");
+      return false;
+    }
   } catch (const YAML::Exception& e) {
     // The parser's message only, cut: e.what() may grow with the text around the error.
     errors->push_back(source + ": not valid YAML at line " + std::to_string(e.mark.line + 1) + ", column " +

@@ -449,8 +449,12 @@ void ClothNode::publish(const ros::Time& stamp, bool with_state) {
   if (!new_stamp && !new_frame) return;
   last_published_stamp_ = stamp;
   last_published_frame_ = frame;
-  if (colliders_pub_.getNumSubscribers() > 0 && !simulation_->options().colliders.empty()) {
+  // A scene without colliders sends one array after one with them, holding only the DELETEALL that takes
+  // the old scene's shapes off the displays.
+  const bool has_colliders = !simulation_->options().colliders.empty();
+  if (colliders_pub_.getNumSubscribers() > 0 && (has_colliders || colliders_drawn_)) {
     colliders_pub_.publish(toColliderMarkers(*simulation_, frame_id_, stamp));
+    colliders_drawn_ = has_colliders;
   }
   if (new_stamp) {
     const auto transforms = toSphereTransforms(*simulation_, frame_id_, stamp, sphere_frame_prefix_);

@@ -80,6 +80,10 @@ visualization_msgs::Marker colliderMarker(const std::string& frame_id, const ros
 visualization_msgs::MarkerArray toColliderMarkers(const core::Simulation& simulation, const std::string& frame_id,
                                                   const ros::Time& stamp) {
   visualization_msgs::MarkerArray markers;
+  visualization_msgs::Marker delete_all;
+  delete_all.header = header(frame_id, stamp);
+  delete_all.action = visualization_msgs::Marker::DELETEALL;
+  markers.markers.push_back(delete_all);
   const core::ColliderSet& colliders = simulation.options().colliders;
   const std::vector<Eigen::Vector3d> centers = simulation.sphereCenters();
   const Eigen::Quaterniond upright = Eigen::Quaterniond::Identity();

@@ -124,6 +124,21 @@ TEST(BadSceneFile, MalformedYamlNamesTheLineAndQuotesNoContent) {
   EXPECT_FALSE(mentions(message, "secret_token_1234")) << message;
 }
 
+TEST(BadSceneFile, ASecondYamlDocumentIsRefusedNotDroppedUnread) {
+  // An audit's: only the first document was read, so `cols` after a `---` was lost (a 10 x 20 cloth ran)
+  // and a malformed second document loaded without a word.
+  EXPECT_TRUE(mentions(refusalOf("rows: 10\n---\ncols: 10\n"), "2 YAML documents (separated by ---)"));
+  EXPECT_TRUE(mentions(refusalOf("rows: 10\ncols: 10\n---\nmass: [oops\n"), "not valid YAML at line 5"));
+  // A document marker before or after the one document is still one scene.
+  SceneOptions options;
+  std::vector<std::string> errors;
+  const std::string dir = scratchDir("documents");
+  EXPECT_TRUE(loadSceneFile(writeFile(dir, "marked.yaml", "---\nrows: 7\ncols: 6\n---\n"), &options, &errors))
+      << (errors.empty() ? "" : errors.front());
+  EXPECT_EQ(options.rows, 7);
+  EXPECT_EQ(options.cols, 6);
+}
+
 TEST(BadSceneFile, AFileThatIsNotASceneIsQuotedOnlyAsAShortCutExcerpt) {
   // /etc/passwd renamed .yaml: one long plain scalar. Before, the whole of it came back in the message.
   const std::string passwd =
@@ -179,6 +194,65 @@ TEST(BadSceneFile, AWrongTypeInsideAListOrAMaterialNamesTheEntryAndTheField) {
   EXPECT_TRUE(mentions(substeps, "'auto' or an integer in [1, ")) << substeps;
 }
 
+TEST(BadSceneFile, ANumberNoDoubleHoldsIsNamedAsSuchAndWhichComponent) {
+  // An audit's: 1e400 read as "expected a number", and in a vector without saying which of the three.
+  const std::string mass = refusalOf("mass: 1e400\n");
+  EXPECT_TRUE(mentions(mass, "expected a number a double holds")) << mass;
+  const std::string gravity = refusalOf("gravity: [0, 0, -1e400]\n");
+  EXPECT_TRUE(mentions(gravity, "its [2] = '-1e400' is not a number a double holds")) << gravity;
+  const std::string word = refusalOf("gravity: [0, zero, -9.81]\n");
+  EXPECT_TRUE(mentions(word, "its [1] = 'zero' is not a number)")) << word;
+}
+
+TEST(BadSceneFile, EachOutlineMistakeIsNamed) {
+  // An audit's: each of these answered only the forms expected.
+  const std::vector<std::pair<std::string, std::string>> cases{
+      {"{circle: {center: [0.5, 0.5], radius: 0.5, extra: 1}}", "the key 'extra' is not one of them"},
+      {"{circle: {center: [0.5, 0.5]}}", "the circle has no radius"},
+      {"{circle: {center: [0.5, 0.5], radius: 0.5}, polygon: [[0, 0], [1, 0], [0, 1]]}", "not both"},
+      {"{circle: {center: [0.5, 0.5, 0], radius: 0.5}}", "the circle's center is a list of 3, not [u, v]"},
+      {"{circle: {center: [0.5, 0.5], radius: wide}}", "the circle's radius is 'wide', not a number"},
+      {"{polygon: [[0, 0], [1, 0], [0, 1, 2]]}", "corner [2] is a list of 3, not [u, v]"},
+      {"{square: 1}", "the key 'square' is not one of them"},
+      {"round", "got 'round'"},
+  };
+  for (const auto& [outline, named] : cases) {
+    const std::string message = refusalOf("rows: 10\ncols: 10\noutline: " + outline + "\n");
+    EXPECT_TRUE(mentions(message, named)) << outline << ": " << message;
+  }
+  const std::string twice = refusalOf("rows: 10\ncols: 10\noutline: {circle: {center: [0.5, 0.5], radius: 0.5, radius: 0.4}}\n");
+  EXPECT_TRUE(mentions(twice, "twice")) << twice;
+}
+
+TEST(BadSceneFile, AFrameColliderWithoutItsShapeOrWithAFieldOutOfRangeIsRefused) {
+  // An audit's: {frame: link1, size: [...]} ran as a 5 cm sphere (no shape: a sphere), and a box's
+  // radius -1 was taken because a box does not use it.
+  const std::string box = refusalOf("frame_colliders: [{frame: link1, size: [0.3, 0.3, 0.3]}]\n");
+  EXPECT_TRUE(mentions(box, "[0] has size but no shape, so it would be a sphere: give shape: box")) << box;
+  const std::string capsule = refusalOf("frame_colliders: [{frame: link1, length: 0.3}]\n");
+  EXPECT_TRUE(mentions(capsule, "give shape: capsule")) << capsule;
+  SceneOptions options;
+  FrameCollider link;
+  link.frame = "link";
+  link.shape = ShapeKind::kBox;
+  link.radius_m = -1.0;
+  options.colliders.frames = {link};
+  EXPECT_TRUE(mentions(problemsWith(options), "frame_colliders[0].radius = -1")) << problemsWith(options);
+  link.radius_m = 0.05;
+  link.shape = ShapeKind::kSphere;
+  link.size_m.setZero();
+  options.colliders.frames = {link};
+  EXPECT_TRUE(mentions(problemsWith(options), "frame_colliders[0].size[0] = 0")) << problemsWith(options);
+  // A shape named beside every field (as a state file writes them) still loads.
+  SceneOptions loaded;
+  std::vector<std::string> errors;
+  EXPECT_TRUE(loadSceneFile(writeFile(scratchDir("link"), "link.yaml",
+                                      "frame_colliders: [{frame: l, shape: sphere, radius: 0.1, length: 0.2, "
+                                      "size: [0.1, 0.1, 0.1]}]\n"),
+                            &loaded, &errors))
+      << (errors.empty() ? "" : errors.front());
+}
+
 TEST(BadSceneFile, AParameterOfTheWrongTypeSaysWhichTypeItCameAs) {
   // A parameter 10.0 reaches the reader as !!float "10": quoted alone it read as an integer.
   const std::string rows = refusalOf("rows: !!float 10\n");
@@ -226,6 +300,20 @@ TEST(BadSceneFile, A512By512SceneLoadsAndBuildsAnd513IsRefused) {
 }
 
 // ---- ranges the physics and the node can honour ----------------------------------------------------
+
+TEST(BadOptions, ANearlyUnitNormalIsRefusedNamingItsLengthAndTheTolerance) {
+  // An audit's: [0, 0.7071, 0.7071] (0.99999 long) was refused as "must be a unit vector", which gave no
+  // hint that four digits are too few.
+  SceneOptions options;
+  options.colliders.planes.push_back(PlaneCollider{Eigen::Vector3d(0.0, 0.7071, 0.7071), 0.0});
+  options.origin_m = Eigen::Vector3d(0.0, 0.0, 2.0);  // above the plane, whatever its tilt
+  const std::string problems = problemsWith(options);
+  EXPECT_TRUE(mentions(problems, "planes[0].normal")) << problems;
+  EXPECT_TRUE(mentions(problems, "its length is 0.99999")) << problems;
+  EXPECT_TRUE(mentions(problems, "1 within 1e-06")) << problems;
+  options.colliders.planes.front().normal = Eigen::Vector3d(0.0, 0.70710678, 0.70710678);
+  EXPECT_FALSE(mentions(problemsWith(options), "planes[0].normal")) << problemsWith(options);
+}
 
 TEST(BadOptions, APinMotionPeriodOf1eMinus300IsRefusedByItsPeakSpeed) {
   // The curtain's rail (0.15 m) at a period of 1e-300 s moved its pins at 9e298 m/s: the kinetic energy

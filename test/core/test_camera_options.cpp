@@ -86,6 +86,16 @@ TEST(CameraOptions, NamesMustBeTopicNamesAndUnique) {
   camera = namedCamera();
   camera.frame = "";
   EXPECT_NE(problemAbout(withCamera(camera), "cameras[0].frame").find("non-empty tf frame"), std::string::npos);
+  // An audit's: names and frames of 10,001 characters were taken (and written to state files, which refuse
+  // strings over 4096 characters); the limit is every scene string's.
+  camera = namedCamera();
+  camera.name = "c" + std::string(OptionLimits::kMaxTextChars, 'a');
+  EXPECT_NE(problemAbout(withCamera(camera), "cameras[0].name").find("at most 4096 characters"), std::string::npos);
+  camera.name.pop_back();
+  EXPECT_TRUE(validateSceneOptions(withCamera(camera)).empty()) << "4096 characters are allowed";
+  camera = namedCamera();
+  camera.frame = "f" + std::string(OptionLimits::kMaxTextChars, 'a');
+  EXPECT_NE(problemAbout(withCamera(camera), "cameras[0].frame").find("at most 4096 characters"), std::string::npos);
 }
 
 bool readScene(const std::string& text, SceneOptions* options, std::vector<std::string>* errors) {

@@ -46,6 +46,7 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -722,6 +723,42 @@ TEST_F(NodeTest, LoadSceneOfAFilePathWorks) {
   const auto small = states_->waitFor([](const ClothState& s) { return s.rows == 6 && s.cols == 5; }, 10.0, since);
   ASSERT_TRUE(small) << "no 6x5 state after loading small.yaml";
   EXPECT_EQ(small->positions.size(), 30u);
+}
+
+// An audit's: ~colliders sent ADD markers only, and nothing when a scene had no colliders, so rviz kept
+// drawing the spheres of a scene loaded before (a sphere fewer: that one; none: all of them).
+TEST_F(NodeTest, LoadSceneOfASceneWithoutCollidersTakesTheOldOnesOffTheDisplay) {
+  ASSERT_NO_FATAL_FAILURE(freshScene(false));
+  Monitor<visualization_msgs::MarkerArray> colliders(nh_, nodeTopic("colliders"));
+  const auto startsWithDeleteAll = [](const visualization_msgs::MarkerArray& a) {
+    return !a.markers.empty() && a.markers.front().action == visualization_msgs::Marker::DELETEALL;
+  };
+  cloth_sim::LoadScene load;
+  load.request.scene = "ball";
+  ASSERT_TRUE(callService(nodeTopic("load_scene"), load));
+  ASSERT_TRUE(load.response.success) << load.response.message;
+  const auto drawn = colliders.waitFor(
+      [](const visualization_msgs::MarkerArray& a) {
+        return std::any_of(a.markers.begin(), a.markers.end(), [](const auto& m) { return m.ns == "spheres"; });
+      },
+      15.0, 0);
+  ASSERT_TRUE(drawn) << "the ball scene's sphere never came on ~colliders";
+  EXPECT_TRUE(startsWithDeleteAll(*drawn)) << "the array adds its shapes without deleting the last ones";
+  const std::uint64_t before_load = colliders.count();
+  load.request.scene = "hanging";
+  ASSERT_TRUE(callService(nodeTopic("load_scene"), load));
+  ASSERT_TRUE(load.response.success) << load.response.message;
+  const auto cleared = colliders.waitFor(
+      [](const visualization_msgs::MarkerArray& a) { return a.markers.size() == 1u; }, 10.0, before_load);
+  ASSERT_TRUE(cleared) << "no array after loading a scene without colliders: the sphere stays drawn";
+  EXPECT_TRUE(startsWithDeleteAll(*cleared));
+  // Only one: a scene without colliders sends nothing more.
+  const std::uint64_t after_clear = colliders.count();
+  const auto frame = states_->waitForNext(10.0, states_->count());
+  ASSERT_TRUE(frame);
+  ASSERT_TRUE(states_->waitFor([&](const ClothState& s) { return s.frame >= frame->frame + 10; }, 10.0,
+                               states_->count()));
+  EXPECT_EQ(colliders.count(), after_clear) << "a scene without colliders kept sending arrays";
 }
 
 namespace {

@@ -48,6 +48,8 @@ cloth_sim::ClothState toStateMessage(const core::Simulation& simulation, const s
 /// the cloth resting on them): spheres, boxes, and planes as 4 m square slabs
 /// centred on the point of the plane nearest the origin, and the frame colliders where their shapes stand (a
 /// capsule as a cylinder and two end spheres). Namespaces "spheres", "boxes", "planes", "frame_colliders".
+/// The first marker is a DELETEALL: a display keeps every marker it was sent, so without it a scene with
+/// fewer colliders than the last one (~load_scene) left the old ones drawn. With no colliders, only it.
 visualization_msgs::MarkerArray toColliderMarkers(const core::Simulation& simulation, const std::string& frame_id,
                                                   const ros::Time& stamp);
 
