@@ -8,12 +8,14 @@
 // The scene is built exactly as the node builds it: the scene file, then every override through the scene-file
 // parser (applySceneYaml) and one validation (validateSceneOptions), so a key means here what it means there.
 #include "cloth_sim/core/constants.h"
+#include "cloth_sim/core/grid.h"
 #include "cloth_sim/core/options.h"
 #include "cloth_sim/core/scripted_fold.h"
 #include "cloth_sim/core/simulation.h"
 #include "cloth_sim/core/spatial_hash.h"
 #include "cloth_sim/core/state.h"
 #include "cloth_sim/io/scene_file.h"
+#include "cloth_sim/io/texture.h"
 
 #include "accuracy_tool.h"
 #include "bench_common.h"
@@ -262,8 +264,24 @@ void parseCommandLine(int argc, char** argv, BenchOptions* options, std::vector<
 
 // ---- scene ---------------------------------------------------------------------------------------------------------
 
-/// The scene file, then the overrides in order, then --dynamic; validated once at the end. False with every
-/// problem in *errors.
+/// Whether the scene's texture decodes, as cloth_node decodes it when it builds the cloth (sceneVertexColors),
+/// refusing the scene where it does not. The scene-file loader checks only that the file is there and regular,
+/// and a texture from --set not even that. False with the image reader's reason ("texture PATH: unknown image
+/// type") in *errors. Call on a validated scene.
+bool textureDecodes(const core::SceneOptions& scene, std::vector<std::string>* errors) {
+  if (scene.texture.empty()) return true;
+  // The grid's uv depend on rows and cols alone: the node samples the image at the same points.
+  const core::ClothGrid grid = core::buildClothGrid(scene.rows, scene.cols, scene.width_m, scene.height_m,
+                                                    scene.origin_m, scene.u_axis, scene.v_axis);
+  Eigen::Matrix3Xf colors;
+  std::string error;
+  if (core::sceneVertexColors(scene.texture, grid.uv, &colors, &error)) return true;
+  errors->push_back(error);
+  return false;
+}
+
+/// The scene file, then the overrides in order, then --dynamic; validated once at the end, its texture
+/// decoded. False with every problem in *errors.
 bool buildScene(const BenchOptions& options, core::SceneOptions* scene, std::vector<std::string>* errors) {
   if (!cloth_sim::bench::loadSceneWithOverrides(options.scene, options.scenes_dir, options.overrides, scene, errors)) {
     return false;
@@ -283,7 +301,7 @@ bool buildScene(const BenchOptions& options, core::SceneOptions* scene, std::vec
     capsule.length_m = kBenchCapsuleLength_m;
     scene->colliders.frames.push_back(capsule);
   }
-  return cloth_sim::bench::validateInto(*scene, errors);
+  return cloth_sim::bench::validateInto(*scene, errors) && textureDecodes(*scene, errors);
 }
 
 // ---- measurements --------------------------------------------------------------------------------------------------

@@ -8,9 +8,13 @@
 #include "scene_test_util.h"
 
 #include <gtest/gtest.h>
+#include <stb/stb_image_write.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -18,6 +22,7 @@ namespace cloth_sim::bench {
 namespace {
 
 namespace core = cloth_sim::core;
+namespace fs = std::filesystem;
 
 /// A small hanging cloth: smooth (no contacts), so rk4 converges at its full order.
 core::SceneOptions smallHangingCloth() {
@@ -431,6 +436,48 @@ TEST(ClothBenchCommandLine, APlainRunRefusesCountsItCouldNotRun) {
       {"--rows 10 --cols 10 --grippers 17", "--grippers 17: expected an integer in [0, 16]"},
   };
   expectRefused(refused);
+}
+
+/// A fresh folder for one test's files, named after the test and this process (tests may run side by side).
+fs::path scratchDir(const std::string& name) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("cloth_bench_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+void writeText(const fs::path& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+  ASSERT_TRUE(out.good()) << path;
+}
+
+TEST(ClothBenchCommandLine, RefusesASceneWhoseTextureIsNotAnImageAsTheNodeDoes) {
+  // Found by an audit of the tools: cloth_bench ran a scene whose texture is not an image (exit 0), which
+  // cloth_node refuses at start-up ("texture PATH: unknown image type"). The scene-file loader checks only
+  // that the file is there and regular; the node decodes it, and now cloth_bench does too.
+  const fs::path dir = scratchDir("texture");
+  writeText(dir / "bad.png", "not a png");
+  writeText(dir / "bad.yaml", "rows: 6\ncols: 6\ntexture: bad.png\n");
+  constexpr int kSide = 2;
+  constexpr int kChannels = 3;
+  const unsigned char pixels[kSide * kSide * kChannels] = {255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255};
+  ASSERT_NE(stbi_write_png((dir / "good.png").c_str(), kSide, kSide, kChannels, pixels, kSide * kChannels), 0);
+  writeText(dir / "good.yaml", "rows: 6\ncols: 6\ntexture: good.png\n");
+  const std::string one_frame = " --frames 1 --warmup 0";
+  // The same scene with an image that decodes runs: the refusal below is the image's, not the scene's.
+  int status = -1;
+  const std::string good =
+      runCommand(std::string(CLOTH_BENCH_EXECUTABLE) + " --scene " + (dir / "good.yaml").string() + one_frame + " 2>&1",
+                 &status);
+  EXPECT_EQ(status, 0) << good;
+  const std::string bad_png = (dir / "bad.png").string();
+  expectRefused({
+      {"--scene " + (dir / "bad.yaml").string() + one_frame, "texture " + bad_png + ": unknown image type"},
+      // A texture set on the command line never passed the loader's check: it is decoded all the same.
+      {"--scene hanging --rows 6 --cols 6 --set texture=" + bad_png + one_frame, "texture " + bad_png + ": unknown image type"},
+  });
+  fs::remove_all(dir);
 }
 
 }  // namespace
