@@ -426,6 +426,10 @@ void moveBenchGrippers(core::Simulation& sim, const std::vector<core::Pose>& hom
 BenchResult runOurs(const BenchOptions& options, const core::SceneOptions& scene) {
   core::Simulation sim(scene);
   const std::vector<core::Pose> gripper_homes = attachBenchGrippers(sim, options.grippers);
+  const core::ScriptedFold fold;
+  // A hand the cloth cannot give a corner to would fold nothing, and the run would time that.
+  const std::string fold_problem = options.fold ? fold.holdProblem(sim.grid()) : "";
+  if (!fold_problem.empty()) throw UsageError("--fold: " + fold_problem);
   BenchResult result;
   result.side = "cloth_sim";
   result.integrator = core::integratorName(scene.integrator);
@@ -439,7 +443,7 @@ BenchResult runOurs(const BenchOptions& options, const core::SceneOptions& scene
   frame_ms.reserve(static_cast<std::size_t>(options.frames));
   long long solver_iterations = 0, integrator_steps = 0;
   int converged_frames = 0;
-  const core::ScriptedFold fold;
+  std::string fold_error;
   const bool self_colliding = scene.self_collision.enabled;
   core::SweptPairFinder finder;
   std::vector<std::pair<int, int>> pairs;
@@ -450,7 +454,7 @@ BenchResult runOurs(const BenchOptions& options, const core::SceneOptions& scene
   for (int frame = 0; frame < total_frames; ++frame) {
     const Eigen::Matrix3Xd frame_start_m = self_colliding ? sim.state().positions_m : Eigen::Matrix3Xd();
     const Clock::time_point start = Clock::now();
-    if (options.fold) fold.drive(sim);
+    if (options.fold && !fold.drive(sim, &fold_error)) throw std::runtime_error("--fold: " + fold_error);
     moveBenchGrippers(sim, gripper_homes);
     for (int k = 0; k < options.capsules; ++k) {
       std::string error;

@@ -480,5 +480,23 @@ TEST(ClothBenchCommandLine, RefusesASceneWhoseTextureIsNotAnImageAsTheNodeDoes) 
   fs::remove_all(dir);
 }
 
+TEST(ClothBenchCommandLine, FoldRefusesAnOutlineThatRemovesTheCornersItsHandsTake) {
+  // Found by an audit of the tools: with the last row's corners outside the outline, Simulation::grab
+  // refused both hands every frame and ScriptedFold::drive dropped the refusals, so `--fold` printed
+  // "fold": true, max_strain 0, no self contacts and exit 0: a fold of nothing, timed. --grippers on the
+  // same cloth is refused as a usage error; so is --fold now, before anything is timed.
+  const std::string fold = "--scene fold --rows 10 --cols 10 --frames 2 --warmup 0 --fold";
+  int status = -1;
+  const std::string whole = runCommand(std::string(CLOTH_BENCH_EXECUTABLE) + " " + fold + " 2>&1", &status);
+  EXPECT_EQ(status, 0) << whole;
+  // The fold scene is 0.5 m square: this circle keeps its middle and cuts every corner away.
+  const std::string circle = " --set 'outline={circle: {center: [0.25, 0.25], radius: 0.25}}'";
+  expectRefused({
+      {fold + circle, "--fold: particle 90 is outside the cloth's outline"},
+      {"--scene fold --rows 10 --cols 10 --frames 2 --grippers 2" + circle,
+       "--grippers: particle 90 is outside the cloth's outline"},
+  });
+}
+
 }  // namespace
 }  // namespace cloth_sim::bench
