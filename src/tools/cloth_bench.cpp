@@ -108,8 +108,10 @@ Times a cloth scene and prints one JSON line on stdout.
                          --substeps and --set apply in command-line order, after the scene file
   --frames N             timed frames (default 100, at most 1000000)
   --warmup N             frames run before timing starts (default 5, at most 1000000; not used with --bullet)
-  --dynamic              cloth starts flat at the height of its top edge, two top corners pinned, and swings
-                         down (overrides u_axis, v_axis, origin and pins after --set)
+  --dynamic              cloth starts flat at the height of its top edge, its two top corners pinned where they
+                         lie, and swings down: after --set, sets u_axis, v_axis, origin and pins, and clears
+                         pin_positions, pin_travel_time and pin_motion_amplitude (refused where the outline
+                         removes a top corner)
   --bullet               run Bullet's soft-body cloth instead (only in builds with Bullet); it takes rows,
                          cols, width, height, mass, frame_rate and substeps from the scene
   --iterations N         Bullet's position iterations per substep (default 1, at most 1000; --bullet only)
@@ -286,7 +288,14 @@ bool buildScene(const BenchOptions& options, core::SceneOptions* scene, std::vec
   if (!cloth_sim::bench::loadSceneWithOverrides(options.scene, options.scenes_dir, options.overrides, scene, errors)) {
     return false;
   }
-  if (options.dynamic) cloth_sim::bench::makeDynamic(scene);
+  if (options.dynamic) {
+    cloth_sim::bench::makeDynamic(scene);
+    const std::string problem = cloth_sim::bench::dynamicPinsProblem(*scene);
+    if (!problem.empty()) {
+      errors->push_back(problem);
+      return false;
+    }
+  }
   // One particle of the bottom row each (attachBenchGrippers): a usage error, not a failed run.
   if (options.grippers > scene->cols) {
     errors->push_back("--grippers " + std::to_string(options.grippers) + ": the bottom row holds " +
