@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 namespace cloth_sim::core {
 
@@ -18,6 +19,13 @@ double smoothstep(double u) {
 
 std::vector<int> ScriptedFold::heldParticles(const ClothGrid& grid) const {
   return {grid.index(grid.rows - 1, 0), grid.index(grid.rows - 1, grid.cols - 1)};
+}
+
+std::string ScriptedFold::holdProblem(const ClothGrid& grid) const {
+  for (const int particle : heldParticles(grid)) {
+    if (!grid.isActive(particle)) return "particle " + std::to_string(particle) + " is outside the cloth's outline";
+  }
+  return "";
 }
 
 std::vector<Eigen::Vector3d> ScriptedFold::handPositions_m(const ClothGrid& grid, double thickness_m, double time_s,
@@ -47,26 +55,32 @@ std::vector<Eigen::Vector3d> ScriptedFold::handPositions_m(const ClothGrid& grid
   return hands;
 }
 
-void ScriptedFold::drive(Simulation& simulation) const {
+bool ScriptedFold::drive(Simulation& simulation, std::string* error) const {
   const double end_s = simulation.state().time_s + simulation.options().frameDuration_s();
   const std::vector<int> held = heldParticles(simulation.grid());
-  if (end_s <= start_s) return;
+  if (end_s <= start_s) return true;
   if (end_s > releaseTime_s()) {
+    // A hand already let go (or never held) has nothing to release: not an error.
     for (std::size_t h = 0; h < held.size(); ++h) simulation.release(kFirstGraspId + static_cast<std::uint32_t>(h));
-    return;
+    return true;
   }
   const double thickness_m = selfCollisionThickness_m(simulation.options().self_collision, simulation.grid());
   const std::vector<Eigen::Vector3d> hands =
       handPositions_m(simulation.grid(), thickness_m, end_s, simulation.state().positions_m);
+  bool every_hand_holds = true;
   for (std::size_t h = 0; h < held.size(); ++h) {
     GraspRequest request;
     request.id = kFirstGraspId + static_cast<std::uint32_t>(h);
     request.particle = held[h];
     request.target_m = hands[h];
     request.stiffness_N_per_m = grasp_stiffness_N_per_m;
-    std::string error;
-    simulation.grab(request, &error);
+    std::string grab_error;
+    if (!simulation.grab(request, &grab_error) && every_hand_holds) {
+      *error = grab_error;
+      every_hand_holds = false;
+    }
   }
+  return every_hand_holds;
 }
 
 }  // namespace cloth_sim::core

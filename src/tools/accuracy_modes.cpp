@@ -73,6 +73,11 @@ bool buildToolScene(const ToolOptions& options, const std::optional<GridSize>& g
   if (!loadSceneWithOverrides(options.scene, options.scenes_dir, options.overrides, scene, errors)) return false;
   if (options.dynamic) makeDynamic(scene);
   if (grid) resampleScene(*grid, scene);
+  const std::string dynamic_problem = options.dynamic ? dynamicPinsProblem(*scene) : "";
+  if (!dynamic_problem.empty()) {
+    errors->push_back(dynamic_problem);
+    return false;
+  }
   return validateInto(*scene, errors);
 }
 

@@ -12,6 +12,8 @@
 #include <Eigen/Core>
 
 #include <cmath>
+#include <cstddef>
+#include <cstdint>
 #include <exception>
 #include <optional>
 #include <string>
@@ -82,14 +84,38 @@ inline bool validateInto(const core::SceneOptions& scene, std::vector<std::strin
 // ---- released flat -------------------------------------------------------------------------------------------------
 
 /// Lays the cloth flat at the height of its top edge, rows running along +y from the top edge, the two top corners
-/// pinned, so it swings down (the same start as bullet_cloth.h's dynamic patch: top-left corner at
-/// (-width / 2, 0, top edge height), world frame).
+/// pinned where they lie, so it swings down (the same start as bullet_cloth.h's dynamic patch: top-left corner at
+/// (-width / 2, 0, top edge height), world frame). The scene's pin_positions, pin_travel_time and pin motion go
+/// with the pins they replace: kept, the drape's corners were still carried to its hooks, and a scene pinning its
+/// top edge at hooks of its own was refused for more hooks than pins.
 inline void makeDynamic(core::SceneOptions* scene) {
   const double top_edge_z_m = scene->origin_m.z();
   scene->u_axis = Eigen::Vector3d::UnitX();
   scene->v_axis = Eigen::Vector3d::UnitY();
   scene->origin_m = Eigen::Vector3d(-0.5 * scene->width_m, 0.0, top_edge_z_m);
   scene->pins = {"top_left", "top_right"};
+  scene->pin_positions_m.clear();
+  scene->pin_travel_time_s = 0.0;
+  scene->pin_motion_amplitude_m.setZero();
+}
+
+/// Why a scene cannot be released flat (after makeDynamic): its outline removes a top corner --dynamic pins.
+/// Empty when it can be, or when the scene has problems of its own (validateSceneOptions names those). Without
+/// this the refusal read "pins: particle 0 is outside the outline", a key the command line never set.
+inline std::string dynamicPinsProblem(const core::SceneOptions& scene) {
+  if (scene.outline.shape == core::OutlineOptions::Shape::kNone) return "";
+  core::SceneOptions unpinned = scene;
+  unpinned.pins.clear();
+  if (!core::validateSceneOptions(unpinned).empty()) return "";  // outlineMask needs a valid grid
+  const std::vector<std::uint8_t> kept = core::outlineMask(scene);
+  std::string pin_error;
+  for (const int pin : core::resolvePins(scene.pins, scene.rows, scene.cols, &pin_error)) {
+    if (kept[static_cast<std::size_t>(pin)] == 0) {
+      return "--dynamic pins the two top corners, and particle " + std::to_string(pin) +
+             " is outside the cloth's outline";
+    }
+  }
+  return "";
 }
 
 }  // namespace cloth_sim::bench

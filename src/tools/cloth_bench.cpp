@@ -8,12 +8,14 @@
 // The scene is built exactly as the node builds it: the scene file, then every override through the scene-file
 // parser (applySceneYaml) and one validation (validateSceneOptions), so a key means here what it means there.
 #include "cloth_sim/core/constants.h"
+#include "cloth_sim/core/grid.h"
 #include "cloth_sim/core/options.h"
 #include "cloth_sim/core/scripted_fold.h"
 #include "cloth_sim/core/simulation.h"
 #include "cloth_sim/core/spatial_hash.h"
 #include "cloth_sim/core/state.h"
 #include "cloth_sim/io/scene_file.h"
+#include "cloth_sim/io/texture.h"
 
 #include "accuracy_tool.h"
 #include "bench_common.h"
@@ -106,8 +108,10 @@ Times a cloth scene and prints one JSON line on stdout.
                          --substeps and --set apply in command-line order, after the scene file
   --frames N             timed frames (default 100, at most 1000000)
   --warmup N             frames run before timing starts (default 5, at most 1000000; not used with --bullet)
-  --dynamic              cloth starts flat at the height of its top edge, two top corners pinned, and swings
-                         down (overrides u_axis, v_axis, origin and pins after --set)
+  --dynamic              cloth starts flat at the height of its top edge, its two top corners pinned where they
+                         lie, and swings down: after --set, sets u_axis, v_axis, origin and pins, and clears
+                         pin_positions, pin_travel_time and pin_motion_amplitude (refused where the outline
+                         removes a top corner)
   --bullet               run Bullet's soft-body cloth instead (only in builds with Bullet); it takes rows,
                          cols, width, height, mass, frame_rate and substeps from the scene
   --iterations N         Bullet's position iterations per substep (default 1, at most 1000; --bullet only)
@@ -262,13 +266,36 @@ void parseCommandLine(int argc, char** argv, BenchOptions* options, std::vector<
 
 // ---- scene ---------------------------------------------------------------------------------------------------------
 
-/// The scene file, then the overrides in order, then --dynamic; validated once at the end. False with every
-/// problem in *errors.
+/// Whether the scene's texture decodes, as cloth_node decodes it when it builds the cloth (sceneVertexColors),
+/// refusing the scene where it does not. The scene-file loader checks only that the file is there and regular,
+/// and a texture from --set not even that. False with the image reader's reason ("texture PATH: unknown image
+/// type") in *errors. Call on a validated scene.
+bool textureDecodes(const core::SceneOptions& scene, std::vector<std::string>* errors) {
+  if (scene.texture.empty()) return true;
+  // The grid's uv depend on rows and cols alone: the node samples the image at the same points.
+  const core::ClothGrid grid = core::buildClothGrid(scene.rows, scene.cols, scene.width_m, scene.height_m,
+                                                    scene.origin_m, scene.u_axis, scene.v_axis);
+  Eigen::Matrix3Xf colors;
+  std::string error;
+  if (core::sceneVertexColors(scene.texture, grid.uv, &colors, &error)) return true;
+  errors->push_back(error);
+  return false;
+}
+
+/// The scene file, then the overrides in order, then --dynamic; validated once at the end, its texture
+/// decoded. False with every problem in *errors.
 bool buildScene(const BenchOptions& options, core::SceneOptions* scene, std::vector<std::string>* errors) {
   if (!cloth_sim::bench::loadSceneWithOverrides(options.scene, options.scenes_dir, options.overrides, scene, errors)) {
     return false;
   }
-  if (options.dynamic) cloth_sim::bench::makeDynamic(scene);
+  if (options.dynamic) {
+    cloth_sim::bench::makeDynamic(scene);
+    const std::string problem = cloth_sim::bench::dynamicPinsProblem(*scene);
+    if (!problem.empty()) {
+      errors->push_back(problem);
+      return false;
+    }
+  }
   // One particle of the bottom row each (attachBenchGrippers): a usage error, not a failed run.
   if (options.grippers > scene->cols) {
     errors->push_back("--grippers " + std::to_string(options.grippers) + ": the bottom row holds " +
@@ -283,7 +310,7 @@ bool buildScene(const BenchOptions& options, core::SceneOptions* scene, std::vec
     capsule.length_m = kBenchCapsuleLength_m;
     scene->colliders.frames.push_back(capsule);
   }
-  return cloth_sim::bench::validateInto(*scene, errors);
+  return cloth_sim::bench::validateInto(*scene, errors) && textureDecodes(*scene, errors);
 }
 
 // ---- measurements --------------------------------------------------------------------------------------------------
@@ -408,6 +435,10 @@ void moveBenchGrippers(core::Simulation& sim, const std::vector<core::Pose>& hom
 BenchResult runOurs(const BenchOptions& options, const core::SceneOptions& scene) {
   core::Simulation sim(scene);
   const std::vector<core::Pose> gripper_homes = attachBenchGrippers(sim, options.grippers);
+  const core::ScriptedFold fold;
+  // A hand the cloth cannot give a corner to would fold nothing, and the run would time that.
+  const std::string fold_problem = options.fold ? fold.holdProblem(sim.grid()) : "";
+  if (!fold_problem.empty()) throw UsageError("--fold: " + fold_problem);
   BenchResult result;
   result.side = "cloth_sim";
   result.integrator = core::integratorName(scene.integrator);
@@ -421,7 +452,7 @@ BenchResult runOurs(const BenchOptions& options, const core::SceneOptions& scene
   frame_ms.reserve(static_cast<std::size_t>(options.frames));
   long long solver_iterations = 0, integrator_steps = 0;
   int converged_frames = 0;
-  const core::ScriptedFold fold;
+  std::string fold_error;
   const bool self_colliding = scene.self_collision.enabled;
   core::SweptPairFinder finder;
   std::vector<std::pair<int, int>> pairs;
@@ -432,7 +463,7 @@ BenchResult runOurs(const BenchOptions& options, const core::SceneOptions& scene
   for (int frame = 0; frame < total_frames; ++frame) {
     const Eigen::Matrix3Xd frame_start_m = self_colliding ? sim.state().positions_m : Eigen::Matrix3Xd();
     const Clock::time_point start = Clock::now();
-    if (options.fold) fold.drive(sim);
+    if (options.fold && !fold.drive(sim, &fold_error)) throw std::runtime_error("--fold: " + fold_error);
     moveBenchGrippers(sim, gripper_homes);
     for (int k = 0; k < options.capsules; ++k) {
       std::string error;

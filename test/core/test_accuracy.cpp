@@ -1,6 +1,7 @@
 // The measuring side of `cloth_bench --accuracy` (src/tools/accuracy.h): reference convergence, the error
 // metric, the Pareto front, the stability theory; and one run of the tool itself on a tiny scene.
 #include "accuracy.h"
+#include "bench_common.h"
 
 #include "cloth_sim/core/simulation.h"
 #include "cloth_sim/core/stability_guard.h"
@@ -8,9 +9,13 @@
 #include "scene_test_util.h"
 
 #include <gtest/gtest.h>
+#include <stb/stb_image_write.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -18,6 +23,7 @@ namespace cloth_sim::bench {
 namespace {
 
 namespace core = cloth_sim::core;
+namespace fs = std::filesystem;
 
 /// A small hanging cloth: smooth (no contacts), so rk4 converges at its full order.
 core::SceneOptions smallHangingCloth() {
@@ -431,6 +437,113 @@ TEST(ClothBenchCommandLine, APlainRunRefusesCountsItCouldNotRun) {
       {"--rows 10 --cols 10 --grippers 17", "--grippers 17: expected an integer in [0, 16]"},
   };
   expectRefused(refused);
+}
+
+/// A fresh folder for one test's files, named after the test and this process (tests may run side by side).
+fs::path scratchDir(const std::string& name) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("cloth_bench_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+void writeText(const fs::path& path, const std::string& text) {
+  std::ofstream out(path);
+  out << text;
+  ASSERT_TRUE(out.good()) << path;
+}
+
+TEST(ClothBenchCommandLine, RefusesASceneWhoseTextureIsNotAnImageAsTheNodeDoes) {
+  // Found by an audit of the tools: cloth_bench ran a scene whose texture is not an image (exit 0), which
+  // cloth_node refuses at start-up ("texture PATH: unknown image type"). The scene-file loader checks only
+  // that the file is there and regular; the node decodes it, and now cloth_bench does too.
+  const fs::path dir = scratchDir("texture");
+  writeText(dir / "bad.png", "not a png");
+  writeText(dir / "bad.yaml", "rows: 6\ncols: 6\ntexture: bad.png\n");
+  constexpr int kSide = 2;
+  constexpr int kChannels = 3;
+  const unsigned char pixels[kSide * kSide * kChannels] = {255, 0, 0, 0, 255, 0, 0, 0, 255, 255, 255, 255};
+  ASSERT_NE(stbi_write_png((dir / "good.png").c_str(), kSide, kSide, kChannels, pixels, kSide * kChannels), 0);
+  writeText(dir / "good.yaml", "rows: 6\ncols: 6\ntexture: good.png\n");
+  const std::string one_frame = " --frames 1 --warmup 0";
+  // The same scene with an image that decodes runs: the refusal below is the image's, not the scene's.
+  int status = -1;
+  const std::string good =
+      runCommand(std::string(CLOTH_BENCH_EXECUTABLE) + " --scene " + (dir / "good.yaml").string() + one_frame + " 2>&1",
+                 &status);
+  EXPECT_EQ(status, 0) << good;
+  const std::string bad_png = (dir / "bad.png").string();
+  expectRefused({
+      {"--scene " + (dir / "bad.yaml").string() + one_frame, "texture " + bad_png + ": unknown image type"},
+      // A texture set on the command line never passed the loader's check: it is decoded all the same.
+      {"--scene hanging --rows 6 --cols 6 --set texture=" + bad_png + one_frame, "texture " + bad_png + ": unknown image type"},
+  });
+  fs::remove_all(dir);
+}
+
+TEST(ClothBenchCommandLine, FoldRefusesAnOutlineThatRemovesTheCornersItsHandsTake) {
+  // Found by an audit of the tools: with the last row's corners outside the outline, Simulation::grab
+  // refused both hands every frame and ScriptedFold::drive dropped the refusals, so `--fold` printed
+  // "fold": true, max_strain 0, no self contacts and exit 0: a fold of nothing, timed. --grippers on the
+  // same cloth is refused as a usage error; so is --fold now, before anything is timed.
+  const std::string fold = "--scene fold --rows 10 --cols 10 --frames 2 --warmup 0 --fold";
+  int status = -1;
+  const std::string whole = runCommand(std::string(CLOTH_BENCH_EXECUTABLE) + " " + fold + " 2>&1", &status);
+  EXPECT_EQ(status, 0) << whole;
+  // The fold scene is 0.5 m square: this circle keeps its middle and cuts every corner away.
+  const std::string circle = " --set 'outline={circle: {center: [0.25, 0.25], radius: 0.25}}'";
+  expectRefused({
+      {fold + circle, "--fold: particle 90 is outside the cloth's outline"},
+      {"--scene fold --rows 10 --cols 10 --frames 2 --grippers 2" + circle,
+       "--grippers: particle 90 is outside the cloth's outline"},
+  });
+}
+
+TEST(ClothBenchDynamic, ReplacesThePinsWithEverythingThatSaysWhereTheyGo) {
+  // --dynamic pins the two top corners where the cloth lies flat. The scene's hooks (pin_positions), the
+  // time to carry the pins there and the pins' sway belong to the pins it replaces: kept, the drape's
+  // "released flat" corners were still carried to its hooks, and a scene pinning its top edge with one
+  // hook per particle was refused for "pin_positions: 4 positions for 2 pinned particles", blaming the file.
+  for (const std::string name : {"drape", "curtain", "flag"}) {
+    core::SceneOptions scene = core::test::loadBuiltinScene(name);
+    makeDynamic(&scene);
+    EXPECT_EQ(scene.pins, (std::vector<std::string>{"top_left", "top_right"})) << name;
+    EXPECT_TRUE(scene.pin_positions_m.empty()) << name;
+    EXPECT_EQ(scene.pin_travel_time_s, 0.0) << name;
+    EXPECT_TRUE(scene.pin_motion_amplitude_m.isZero()) << name;
+    EXPECT_TRUE(core::validateSceneOptions(scene).empty()) << name;
+  }
+
+  const fs::path dir = scratchDir("dynamic");
+  writeText(dir / "rail.yaml",
+            "rows: 4\ncols: 4\npins: [top_edge]\n"
+            "pin_positions: [[-0.5, 0, 1.5], [-0.2, 0, 1.5], [0.2, 0, 1.5], [0.5, 0, 1.5]]\n");
+  const std::string rail = std::string(CLOTH_BENCH_EXECUTABLE) + " --scene " + (dir / "rail.yaml").string() +
+                           " --frames 1 --warmup 0";
+  int status = -1;
+  const std::string hung = runCommand(rail + " 2>&1", &status);
+  EXPECT_EQ(status, 0) << "the file is valid as it stands\n" << hung;
+  const std::string released = runCommand(rail + " --dynamic 2>&1", &status);
+  EXPECT_EQ(status, 0) << released;
+  EXPECT_NE(released.find("\"dynamic\": true"), std::string::npos) << released;
+  fs::remove_all(dir);
+}
+
+TEST(ClothBenchDynamic, RefusesAnOutlineThatRemovesATopCornerNamingDynamic) {
+  // The two corners --dynamic pins must be cloth. Refused before too, but as "pins: particle 0 is outside
+  // the outline": a key the command line never set. The measuring modes' --dynamic is the same.
+  const std::string circle = " --set 'outline={circle: {center: [0.5, 0.5], radius: 0.5}}'";
+  const std::string message = "--dynamic pins the two top corners, and particle 0 is outside the cloth's outline";
+  // The outlined cloth itself is valid: unpinned, it runs.
+  int status = -1;
+  const std::string unpinned = runCommand(std::string(CLOTH_BENCH_EXECUTABLE) +
+                                              " --rows 10 --cols 10 --frames 1 --warmup 0 --set pins=[]" + circle + " 2>&1",
+                                          &status);
+  EXPECT_EQ(status, 0) << unpinned;
+  expectRefused({
+      {"--rows 10 --cols 10 --frames 1 --warmup 0 --dynamic" + circle, message},
+      {"--solver-sweep --scene hanging --set rows=10 --set cols=10 --seconds 0.1 --dynamic" + circle, message},
+  });
 }
 
 }  // namespace

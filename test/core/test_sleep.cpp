@@ -387,8 +387,9 @@ TEST(Sleep, AFoldedTowelJitteringInALimitCycleOfItsContactsSleepsAndStaysAsleep)
   // Frames in a row that moved less than sleep_speed, the rule measured frame to frame: the most of them.
   int still_in_a_row = 0;
   int most_still_in_a_row = 0;
+  std::string error;
   for (int frame = 0; frame < kMostFrames && slept_at < 0; ++frame) {
-    fold.drive(simulation);
+    ASSERT_TRUE(fold.drive(simulation, &error)) << error;
     const Eigen::Matrix3Xd before = simulation.state().positions_m;
     const FrameReport report = simulation.advanceFrame();
     ASSERT_TRUE(report.stable) << report.reason;

@@ -15,6 +15,8 @@
 
 #include <Eigen/Core>
 
+#include <cstdint>
+#include <string>
 #include <vector>
 
 namespace cloth_sim::core {
@@ -46,9 +48,15 @@ struct ScriptedFold {
   /// layer's edge onto the floor, stretched 30 % over that step and held there by friction.
   std::vector<Eigen::Vector3d> handPositions_m(const ClothGrid& grid, double thickness_m, double time_s,
                                                const Eigen::Matrix3Xd& positions_m) const;
+  /// Why the hands cannot fold this cloth ("particle 90 is outside the cloth's outline": a corner they
+  /// take that the outline removes, which Simulation::grab refuses), or empty. Ask before driving: without
+  /// its hands the fold folds nothing.
+  std::string holdProblem(const ClothGrid& grid) const;
   /// Grabs, moves or releases the hands for the frame that starts at simulation.state().time_s (call
-  /// before advanceFrame): the targets are where the hands are at the frame's end.
-  void drive(Simulation& simulation) const;
+  /// before advanceFrame): the targets are where the hands are at the frame's end. False with *error
+  /// (Simulation::grab's refusal) if a hand could not take or move its corner; the other hand is driven
+  /// all the same.
+  [[nodiscard]] bool drive(Simulation& simulation, std::string* error) const;
 };
 
 }  // namespace cloth_sim::core
