@@ -88,14 +88,17 @@ double readDouble(const YAML::Node& node) {
   try {
     return readScalar<double>(node, "a number", {"float", "int"});
   } catch (const WrongType&) {
-    // A number no double holds (1e400, 1e-400) is still a number: say so rather than "expected a number".
+    // A number too large for a double (1e400) is still a number: say so rather than "expected a number".
+    // (One too small, 1e-400, reads as 0 without an error, as strtod's underflow gives.)
     if (node.IsScalar() && tagAllows(node, {"float", "int"})) {
       const std::string& text = node.Scalar();
       char* end = nullptr;
       errno = 0;
-      std::strtod(text.c_str(), &end);
-      if (end != text.c_str() && *end == '\0' && errno == ERANGE) {
-        throw WrongType{"a number a double holds (at most about 1.8e308 in size, and 0 or at least 2.2e-308)"};
+      const double value = std::strtod(text.c_str(), &end);
+      if (end != text.c_str() && *end == '\0' && errno == ERANGE && std::isinf(value)) {
+        std::ostringstream expected;
+        expected << "a number a double holds (at most " << std::numeric_limits<double>::max() << " in size)";
+        throw WrongType{expected.str()};
       }
     }
     throw;
@@ -264,6 +267,7 @@ OutlineOptions readOutline(const YAML::Node& node) {
     return keys;
   };
   const std::set<std::string> shapes = keysOf(node, {"circle", "polygon"});
+  if (shapes.empty()) throw wrong("an empty map: give circle or polygon");
   if (shapes.size() != 1) throw wrong("one of circle or polygon, not both");
   if (shapes.count("circle") != 0) {
     const YAML::Node circle = node["circle"];
@@ -480,8 +484,8 @@ std::map<std::string, Setter> makeSetters() {
       if (!entry.IsMap() || entry["shape"]) continue;
       for (const char* field : {"size", "length"}) {
         if (entry[field]) {
-          throw WrongType{"maps that give their shape with " + std::string(field) + " ([" + std::to_string(i) +
-                          "] has " + field + " but no shape, so it would be a sphere: give shape: " +
+          throw WrongType{"maps that name their shape ([" + std::to_string(i) + "] has " + field +
+                          " but no shape, so it would be a sphere: give shape: " +
                           (std::string(field) == "size" ? "box" : "capsule") + ")"};
         }
       }

@@ -420,6 +420,7 @@ ros::Time ClothNode::frameTime(std::uint64_t frame) const {
 }
 
 void ClothNode::forgetPublished() {
+  colliders_to_clear_ = true;
   last_published_stamp_.reset();
   mesh_schedule_->restart();
 }
@@ -449,12 +450,12 @@ void ClothNode::publish(const ros::Time& stamp, bool with_state) {
   if (!new_stamp && !new_frame) return;
   last_published_stamp_ = stamp;
   last_published_frame_ = frame;
-  // A scene without colliders sends one array after one with them, holding only the DELETEALL that takes
-  // the old scene's shapes off the displays.
+  // The first array after the scene was replaced, reset or restored begins with a DELETEALL that takes the
+  // old scene's shapes off the displays; for a scene without colliders it is the only one sent.
   const bool has_colliders = !simulation_->options().colliders.empty();
-  if (colliders_pub_.getNumSubscribers() > 0 && (has_colliders || colliders_drawn_)) {
-    colliders_pub_.publish(toColliderMarkers(*simulation_, frame_id_, stamp));
-    colliders_drawn_ = has_colliders;
+  if (colliders_pub_.getNumSubscribers() > 0 && (has_colliders || colliders_to_clear_)) {
+    colliders_pub_.publish(toColliderMarkers(*simulation_, frame_id_, stamp, colliders_to_clear_));
+    colliders_to_clear_ = false;
   }
   if (new_stamp) {
     const auto transforms = toSphereTransforms(*simulation_, frame_id_, stamp, sphere_frame_prefix_);

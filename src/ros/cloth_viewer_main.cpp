@@ -68,6 +68,14 @@ class ClothViewer {
     if (!resolveTopic(nh, "state_topic", &state_topic, error) || !resolveTopic(pnh, "mesh_topic", &mesh_topic, error)) {
       return false;
     }
+    // Checked with or without a mesh to publish (a bad value is a mistake either way, and would bite when
+    // the mesh is switched back on), and before anything is sent: a refused start sends no tf.
+    if (!std::isfinite(mesh_rate_hz) || mesh_rate_hz <= 0.0 ||
+        mesh_rate_hz > cloth_sim::core::OptionLimits::kMaxFrameRateHz) {
+      *error = "parameter ~mesh_rate = " + std::to_string(mesh_rate_hz) + ": must be in (0, " +
+               std::to_string(cloth_sim::core::OptionLimits::kMaxFrameRateHz) + "] Hz";
+      return false;
+    }
     if (!parent_frame.empty()) {
       if (frame_id.empty() || frame_id[0] == '/' || parent_frame[0] == '/' || parent_frame == frame_id) {
         *error = "parameters ~frame_id = '" + frame_id + "', ~parent_frame_id = '" + parent_frame +
@@ -77,14 +85,6 @@ class ClothViewer {
       // Static: valid at every time, so also at a looping bag's /clock.
       static_broadcaster_.sendTransform(cloth_sim::identityTransform(parent_frame, frame_id, ros::Time::now()));
       ROS_INFO("cloth_viewer: tf %s -> %s (static identity)", parent_frame.c_str(), frame_id.c_str());
-    }
-    // Checked with or without a mesh to publish: a bad value is a mistake either way (and would bite when the
-    // mesh is switched back on).
-    if (!std::isfinite(mesh_rate_hz) || mesh_rate_hz <= 0.0 ||
-        mesh_rate_hz > cloth_sim::core::OptionLimits::kMaxFrameRateHz) {
-      *error = "parameter ~mesh_rate = " + std::to_string(mesh_rate_hz) + ": must be in (0, " +
-               std::to_string(cloth_sim::core::OptionLimits::kMaxFrameRateHz) + "] Hz";
-      return false;
     }
     if (!publish_mesh_) return true;
     mesh_schedule_ = cloth_sim::MeshSchedule(mesh_rate_hz);

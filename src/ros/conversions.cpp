@@ -78,12 +78,14 @@ visualization_msgs::Marker colliderMarker(const std::string& frame_id, const ros
 }  // namespace
 
 visualization_msgs::MarkerArray toColliderMarkers(const core::Simulation& simulation, const std::string& frame_id,
-                                                  const ros::Time& stamp) {
+                                                  const ros::Time& stamp, bool clear_first) {
   visualization_msgs::MarkerArray markers;
-  visualization_msgs::Marker delete_all;
-  delete_all.header = header(frame_id, stamp);
-  delete_all.action = visualization_msgs::Marker::DELETEALL;
-  markers.markers.push_back(delete_all);
+  if (clear_first) {
+    visualization_msgs::Marker delete_all;
+    delete_all.header = header(frame_id, stamp);
+    delete_all.action = visualization_msgs::Marker::DELETEALL;
+    markers.markers.push_back(delete_all);
+  }
   const core::ColliderSet& colliders = simulation.options().colliders;
   const std::vector<Eigen::Vector3d> centers = simulation.sphereCenters();
   const Eigen::Quaterniond upright = Eigen::Quaterniond::Identity();

@@ -66,7 +66,8 @@ bool Grippers::onAttach(cloth_sim::Attach::Request& request, cloth_sim::Attach::
   // A frame that stopped being published would be called lost by the first frame after the attach (and the
   // particles held still where it was last seen): refused now, while the client can still do something. Its
   // age is taken where that frame will take it, at the next frame's end (a transform 0.49 s old now is 0.51
-  // s old there); while paused that time is past and the frame's age when the node runs again unknown, so now.
+  // s old there), or now if that is later: while paused the next frame's end is past (the node re-anchors
+  // its clock at ~pause false) unless ~step ran ahead of the clock, whose next ~step takes it there.
   const ros::Time first_look = std::max(ros::Time::now(), next_frame_end_());
   if (const double age_s = secondsBetween(stamp, first_look); !stamp.isZero() && age_s > kLostAfter_s) {
     std::ostringstream message;

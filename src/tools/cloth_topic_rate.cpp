@@ -85,15 +85,6 @@ double rateHz(const std::vector<double>& times_s) {
   return span_s > 0.0 ? static_cast<double>(times_s.size() - 1) / span_s : 0.0;
 }
 
-std::string jsonString(const std::string& text) {
-  std::string out = "\"";
-  for (char c : text) {
-    if (c == '"' || c == '\\') out += '\\';
-    out += c;
-  }
-  return out + "\"";
-}
-
 class RateMeter {
  public:
   RateMeter(double seconds, double skip_s, std::uint32_t queue) : seconds_(seconds), skip_s_(skip_s), queue_(queue) {}
@@ -132,7 +123,7 @@ class RateMeter {
       }
       const std::size_t count = record.arrivals_s.size();
       if (count < 2) *all_measured = false;
-      out << (t ? ", " : "") << jsonString(record.topic) << ": {\"messages\": " << count
+      out << (t ? ", " : "") << cloth_sim::bench::jsonQuoted(record.topic) << ": {\"messages\": " << count
           << ", \"rate_hz\": " << rateHz(record.arrivals_s) << ", \"period_ms\": {\"p50\": "
           << percentile(periods_ms, 0.5) << ", \"p90\": " << percentile(periods_ms, 0.9)
           << ", \"p99\": " << percentile(periods_ms, 0.99) << ", \"max\": "

@@ -250,6 +250,21 @@ std::string runCommand(const std::string& command, int* status) {
   return output;
 }
 
+// An audit's: a scene name that is not UTF-8 ("\xff\xfe") went into cloth_bench's JSON line as raw bytes,
+// which Python's json refuses: each such byte is U+FFFD, well-formed UTF-8 passes, escapes stay escapes.
+TEST(ToolJson, QuotedStringsAreValidJsonAndUtf8) {
+  using cloth_sim::bench::jsonQuoted;
+  EXPECT_EQ(jsonQuoted("plain"), "\"plain\"");
+  EXPECT_EQ(jsonQuoted("a\"b\\c\n\x01"), "\"a\\\"b\\\\c\\n\\u0001\"");
+  EXPECT_EQ(jsonQuoted("\xff\xfe"), "\"\\ufffd\\ufffd\"");
+  EXPECT_EQ(jsonQuoted("caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x98\x80"), "\"caf\xc3\xa9 \xe2\x82\xac \xf0\x9f\x98\x80\"");
+  // A cut sequence, an overlong '/', a surrogate (U+D800) and beyond U+10FFFF: each byte replaced.
+  EXPECT_EQ(jsonQuoted("x\xc3"), "\"x\\ufffd\"");
+  EXPECT_EQ(jsonQuoted("\xc0\xaf"), "\"\\ufffd\\ufffd\"");
+  EXPECT_EQ(jsonQuoted("\xed\xa0\x80"), "\"\\ufffd\\ufffd\\ufffd\"");
+  EXPECT_EQ(jsonQuoted("\xf4\x90\x80\x80"), "\"\\ufffd\\ufffd\\ufffd\\ufffd\"");
+}
+
 TEST(ClothBenchAccuracy, PrintsTheReferenceEvidenceATableAndARecommendationOnATinyScene) {
   const std::string command = std::string(CLOTH_BENCH_EXECUTABLE) +
                               " --accuracy --scene hanging --set rows=4 --set cols=4 --seconds 0.1 --min-timing 0"

@@ -215,6 +215,7 @@ TEST(BadSceneFile, EachOutlineMistakeIsNamed) {
       {"{polygon: [[0, 0], [1, 0], [0, 1, 2]]}", "corner [2] is a list of 3, not [u, v]"},
       {"{square: 1}", "the key 'square' is not one of them"},
       {"round", "got 'round'"},
+      {"{}", "an empty map: give circle or polygon"},
   };
   for (const auto& [outline, named] : cases) {
     const std::string message = refusalOf("rows: 10\ncols: 10\noutline: " + outline + "\n");

@@ -234,7 +234,11 @@ void frame(core::Simulation& simulation) {
   for (const geometry_msgs::Point& p : cloth_sim::toMeshMarker(simulation, "cloth", stamp).points) {
     require(isFinite(p), "a mesh point is not finite");
   }
-  for (const visualization_msgs::Marker& marker : cloth_sim::toColliderMarkers(simulation, "cloth", stamp).markers) {
+  const visualization_msgs::MarkerArray colliders = cloth_sim::toColliderMarkers(simulation, "cloth", stamp, true);
+  require(!colliders.markers.empty() && colliders.markers.front().action == visualization_msgs::Marker::DELETEALL,
+          "the collider markers asked to clear the display first do not begin with a DELETEALL");
+  for (const visualization_msgs::Marker& marker : cloth_sim::toColliderMarkers(simulation, "cloth", stamp, false).markers) {
+    require(marker.action == visualization_msgs::Marker::ADD, "a collider marker is not an ADD");
     require(isFinite(marker.pose.position), "a collider marker's position is not finite");
     require(std::isfinite(marker.scale.x) && std::isfinite(marker.scale.y) && std::isfinite(marker.scale.z) &&
                 marker.scale.x > 0.0 && marker.scale.y > 0.0 && marker.scale.z > 0.0,

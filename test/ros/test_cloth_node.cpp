@@ -726,7 +726,8 @@ TEST_F(NodeTest, LoadSceneOfAFilePathWorks) {
 }
 
 // An audit's: ~colliders sent ADD markers only, and nothing when a scene had no colliders, so rviz kept
-// drawing the spheres of a scene loaded before (a sphere fewer: that one; none: all of them).
+// drawing the spheres of a scene loaded before (a sphere fewer: that one; none: all of them). The first
+// array after a scene change now begins with a DELETEALL.
 TEST_F(NodeTest, LoadSceneOfASceneWithoutCollidersTakesTheOldOnesOffTheDisplay) {
   ASSERT_NO_FATAL_FAILURE(freshScene(false));
   Monitor<visualization_msgs::MarkerArray> colliders(nh_, nodeTopic("colliders"));
@@ -737,13 +738,18 @@ TEST_F(NodeTest, LoadSceneOfASceneWithoutCollidersTakesTheOldOnesOffTheDisplay) 
   load.request.scene = "ball";
   ASSERT_TRUE(callService(nodeTopic("load_scene"), load));
   ASSERT_TRUE(load.response.success) << load.response.message;
+  std::uint64_t drawn_index = 0;
   const auto drawn = colliders.waitFor(
       [](const visualization_msgs::MarkerArray& a) {
         return std::any_of(a.markers.begin(), a.markers.end(), [](const auto& m) { return m.ns == "spheres"; });
       },
-      15.0, 0);
+      15.0, 0, &drawn_index);
   ASSERT_TRUE(drawn) << "the ball scene's sphere never came on ~colliders";
   EXPECT_TRUE(startsWithDeleteAll(*drawn)) << "the array adds its shapes without deleting the last ones";
+  // Only the first array after a scene change deletes: each tick's would make rviz rebuild every shape.
+  const auto next = colliders.waitForNext(10.0, drawn_index + 1);
+  ASSERT_TRUE(next) << "no ~colliders array after the first";
+  EXPECT_FALSE(startsWithDeleteAll(*next)) << "every array deletes the shapes it then adds again";
   const std::uint64_t before_load = colliders.count();
   load.request.scene = "hanging";
   ASSERT_TRUE(callService(nodeTopic("load_scene"), load));

@@ -313,6 +313,33 @@ TEST(SecondsBetween, IsTheDurationsSecondsWhereOneHoldsThemAndDoesNotThrowBeyond
   EXPECT_EQ(cloth_sim::secondsBetween(ros::Time(100, 999999999), ros::Time(100, 20000000)), -0.979999999);
 }
 
+// rviz keeps every marker a display was sent: the first ~colliders array after a scene change begins with
+// a DELETEALL (the old scene's shapes go), the others only add (a DELETEALL every tick would make rviz
+// rebuild every shape), and a scene without colliders clears and adds nothing.
+TEST(ColliderMarkers, ClearTheDisplayOnlyWhenAskedAndThenFirst) {
+  cloth_sim::core::SceneOptions options;
+  options.rows = 5;
+  options.cols = 5;
+  options.colliders.spheres.push_back(cloth_sim::core::SphereCollider{});
+  options.colliders.spheres.back().center_m = Eigen::Vector3d(0.0, 0.5, 0.0);
+  options.colliders.spheres.back().radius_m = 0.1;
+  const cloth_sim::core::Simulation simulation(options);
+  const auto cleared = cloth_sim::toColliderMarkers(simulation, "world", ros::Time(1.0), true);
+  ASSERT_EQ(cleared.markers.size(), 2u);
+  EXPECT_EQ(cleared.markers[0].action, visualization_msgs::Marker::DELETEALL);
+  EXPECT_EQ(cleared.markers[1].action, visualization_msgs::Marker::ADD);
+  EXPECT_EQ(cleared.markers[1].ns, "spheres");
+  const auto added = cloth_sim::toColliderMarkers(simulation, "world", ros::Time(1.0), false);
+  ASSERT_EQ(added.markers.size(), 1u);
+  EXPECT_EQ(added.markers[0].action, visualization_msgs::Marker::ADD);
+  options.colliders.spheres.clear();
+  const cloth_sim::core::Simulation bare(options);
+  const auto only_clear = cloth_sim::toColliderMarkers(bare, "world", ros::Time(1.0), true);
+  ASSERT_EQ(only_clear.markers.size(), 1u);
+  EXPECT_EQ(only_clear.markers[0].action, visualization_msgs::Marker::DELETEALL);
+  EXPECT_TRUE(cloth_sim::toColliderMarkers(bare, "world", ros::Time(1.0), false).markers.empty());
+}
+
 // A recording or a viewer must know which particles an outline removed: ~state says so, and a viewer's
 // mesh from the state is the node's own (reviewed 2026-11-27: both drew the removed particles, frozen
 // where they started, joined to the cloth by stretched triangles).

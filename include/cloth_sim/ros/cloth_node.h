@@ -214,7 +214,9 @@ class ClothNode {
   std::unique_ptr<core::Simulation> simulation_;
 
   ros::Publisher mesh_pub_, state_pub_, colliders_pub_;
-  bool colliders_drawn_ = false;  ///< the last ~colliders array held shapes (the next scene may have none)
+  /// The next ~colliders array begins with a DELETEALL: the scene was replaced, reset or restored since
+  /// the last one (the displays may hold shapes this scene does not have).
+  bool colliders_to_clear_ = true;
   ros::Subscriber wind_sub_, grasp_sub_;
   ros::ServiceServer reset_srv_, pause_srv_, step_srv_, load_scene_srv_;
   ros::ServiceServer save_state_srv_, load_state_srv_;

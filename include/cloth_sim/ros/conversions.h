@@ -48,10 +48,11 @@ cloth_sim::ClothState toStateMessage(const core::Simulation& simulation, const s
 /// the cloth resting on them): spheres, boxes, and planes as 4 m square slabs
 /// centred on the point of the plane nearest the origin, and the frame colliders where their shapes stand (a
 /// capsule as a cylinder and two end spheres). Namespaces "spheres", "boxes", "planes", "frame_colliders".
-/// The first marker is a DELETEALL: a display keeps every marker it was sent, so without it a scene with
-/// fewer colliders than the last one (~load_scene) left the old ones drawn. With no colliders, only it.
+/// With `clear_first` the first marker is a DELETEALL: a display keeps every marker it was sent, so after a
+/// scene with more colliders than this one (~load_scene, ~load_state) the old ones stay drawn unless
+/// deleted. Only then: every tick it would make rviz rebuild every shape.
 visualization_msgs::MarkerArray toColliderMarkers(const core::Simulation& simulation, const std::string& frame_id,
-                                                  const ros::Time& stamp);
+                                                  const ros::Time& stamp, bool clear_first);
 
 /// A vector (a velocity, a force, a torque) as a message.
 geometry_msgs::Vector3 toVector3(const Eigen::Vector3d& v);

@@ -30,8 +30,9 @@ class Grippers {
   static constexpr double kLostAfter_s = 0.5;
 
   /// `simulation` returns the running simulation (the node replaces it on ~load_scene). `next_frame_end`
-  /// returns the time the node's next frame ends, the time its first beforeFrame will look a new gripper's
-  /// frame up at (while paused, a time already past).
+  /// returns the time the node's next frame ends as its frame clock stands, the time its next beforeFrame
+  /// (a tick's, or a ~step's) looks a new gripper's frame up at: while paused it may lie before now (the
+  /// clock stopped at ~pause) or after it (~step runs frames faster than the clock).
   Grippers(ros::NodeHandle& private_handle, const FrameInputs& frames, std::string world_frame,
            std::function<core::Simulation&()> simulation, std::function<ros::Time()> next_frame_end);
 
