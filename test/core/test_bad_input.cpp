@@ -53,6 +53,12 @@ std::string refusalOf(const std::string& yaml) {
 
 bool mentions(const std::string& text, const std::string& needle) { return text.find(needle) != std::string::npos; }
 
+/// The scene `yaml` is refused with a message that mentions `needle`.
+void expectRefusalMentions(const std::string& yaml, const std::string& needle) {
+  const std::string message = refusalOf(yaml);
+  EXPECT_TRUE(mentions(message, needle)) << yaml << "\n" << message;
+}
+
 /// The first problem validation finds with `options`, or "" when it accepts them.
 std::string problemsWith(const SceneOptions& options) {
   const std::vector<std::string> problems = validateSceneOptions(options);
@@ -196,12 +202,9 @@ TEST(BadSceneFile, AWrongTypeInsideAListOrAMaterialNamesTheEntryAndTheField) {
 
 TEST(BadSceneFile, ANumberNoDoubleHoldsIsNamedAsSuchAndWhichComponent) {
   // An audit's: 1e400 read as "expected a number", and in a vector without saying which of the three.
-  const std::string mass = refusalOf("mass: 1e400\n");
-  EXPECT_TRUE(mentions(mass, "expected a number a double holds")) << mass;
-  const std::string gravity = refusalOf("gravity: [0, 0, -1e400]\n");
-  EXPECT_TRUE(mentions(gravity, "its [2] = '-1e400' is not a number a double holds")) << gravity;
-  const std::string word = refusalOf("gravity: [0, zero, -9.81]\n");
-  EXPECT_TRUE(mentions(word, "its [1] = 'zero' is not a number)")) << word;
+  expectRefusalMentions("mass: 1e400\n", "expected a number a double holds");
+  expectRefusalMentions("gravity: [0, 0, -1e400]\n", "its [2] = '-1e400' is not a number a double holds");
+  expectRefusalMentions("gravity: [0, zero, -9.81]\n", "its [1] = 'zero' is not a number)");
 }
 
 TEST(BadSceneFile, EachOutlineMistakeIsNamed) {
@@ -217,21 +220,17 @@ TEST(BadSceneFile, EachOutlineMistakeIsNamed) {
       {"round", "got 'round'"},
       {"{}", "an empty map: give circle or polygon"},
   };
-  for (const auto& [outline, named] : cases) {
-    const std::string message = refusalOf("rows: 10\ncols: 10\noutline: " + outline + "\n");
-    EXPECT_TRUE(mentions(message, named)) << outline << ": " << message;
-  }
-  const std::string twice = refusalOf("rows: 10\ncols: 10\noutline: {circle: {center: [0.5, 0.5], radius: 0.5, radius: 0.4}}\n");
-  EXPECT_TRUE(mentions(twice, "twice")) << twice;
+  for (const auto& [outline, named] : cases) expectRefusalMentions("rows: 10\ncols: 10\noutline: " + outline + "\n", named);
+  expectRefusalMentions("rows: 10\ncols: 10\noutline: {circle: {center: [0.5, 0.5], radius: 0.5, radius: 0.4}}\n",
+                        "'radius' twice");
 }
 
 TEST(BadSceneFile, AFrameColliderWithoutItsShapeOrWithAFieldOutOfRangeIsRefused) {
   // An audit's: {frame: link1, size: [...]} ran as a 5 cm sphere (no shape: a sphere), and a box's
   // radius -1 was taken because a box does not use it.
-  const std::string box = refusalOf("frame_colliders: [{frame: link1, size: [0.3, 0.3, 0.3]}]\n");
-  EXPECT_TRUE(mentions(box, "[0] has size but no shape, so it would be a sphere: give shape: box")) << box;
-  const std::string capsule = refusalOf("frame_colliders: [{frame: link1, length: 0.3}]\n");
-  EXPECT_TRUE(mentions(capsule, "give shape: capsule")) << capsule;
+  expectRefusalMentions("frame_colliders: [{frame: link1, size: [0.3, 0.3, 0.3]}]\n",
+                        "[0] has size but no shape, so it would be a sphere: give shape: box");
+  expectRefusalMentions("frame_colliders: [{frame: link1, length: 0.3}]\n", "give shape: capsule");
   SceneOptions options;
   FrameCollider link;
   link.frame = "link";
