@@ -422,8 +422,12 @@ FrameReport Simulation::advanceFrame() {
   const std::uint64_t drive = driveFingerprint();
   if (sleepsThrough(driven, drive)) {
     sleepThroughFrame(&report);
+    report.sleeping = true;
     return report;
   }
+  // Asleep before this frame, which then is its check frame (sleepsThrough's other conditions hold).
+  const bool was_sleeping = options_.sleep_speed_m_per_s > 0.0 && memory_.calm_frames >= sleepAfterFrames(options_) &&
+                            !driven && drive == memory_.drive_fingerprint;
   if (memory_.calm_frames >= sleepAfterFrames(options_) && (driven || drive != memory_.drive_fingerprint)) {
     // Waking: what moves it now is not what `auto`'s scale was raised for (it came to rest before it
     // slept, and no trial came on the way: frameAutoScale). From one step a frame, the guard refines
@@ -473,6 +477,7 @@ FrameReport Simulation::advanceFrame() {
                        report.self_collision.crossed == 0,
                    motion_m_per_s * options_.frameDuration_s());
     memory_.drive_fingerprint = drive;
+    report.sleeping = was_sleeping && memory_.calm_frames >= sleepAfterFrames(options_);
   } else if (++memory_.consecutive_rollbacks >= GuardMemory::kRollbacksBeforeRecovery) {
     accepted = recover(envelope, &report);
   }

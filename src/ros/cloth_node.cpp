@@ -368,7 +368,10 @@ bool ClothNode::advanceFrames(int frames, bool publish_between) {
     // ~reset (else the frames after it were stamped seconds before it), and the frames the tick still owed
     // are owed no more.
     if (report.scene_reset) reanchor();
-    asleep_ = report.asleep;
+    // Asleep through the frame a sleeping cloth computes once a second to check on itself, if it found the
+    // cloth at rest (report.asleep alone is false there, and under /clock the 1 Hz report can fall on it
+    // every time: a cloth asleep for minutes never read as asleep).
+    asleep_ = report.sleeping;
     // A frame the cloth slept through computed nothing: the diagnostics keep the figures (substeps,
     // iterations, contacts) of the last frame that was computed, whose state the cloth still is.
     if (!report.asleep) last_report_ = report;
@@ -759,11 +762,27 @@ bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::L
     return refuse(error.rfind(named, 0) == 0 ? "its texture does not load (" + error.substr(named.size()) + ")"
                                              : "its texture does not load");
   }
+  // The node's URDF colliders join every state it loads, as every scene: those the file does not hold (it
+  // was saved by a node without this URDF) are added, unposed until their frames come. The file's own
+  // colliders stay, whichever node's URDF they came from.
+  std::size_t urdf_added = 0;
+  for (const core::FrameCollider& link : urdf_colliders_) {
+    std::vector<core::FrameCollider>& frames = snapshot.options.colliders.frames;
+    if (std::find(frames.begin(), frames.end(), link) != frames.end()) continue;
+    frames.push_back(link);
+    snapshot.inputs.frame_colliders.emplace_back();
+    ++urdf_added;
+  }
   const std::vector<core::Grasp> grasps_before = simulation_->grasps();
   const std::vector<core::Gripper> grippers_before = simulation_->grippers();
   if (!simulation_->restore(snapshot, &error)) return refuse(error);
   grippers_->synchronize();  // the file's grippers follow their frames by name
-  if (mouse_) mouse_->endDrag();  // a drag's grasp is the file's now, or gone
+  if (mouse_) {
+    // A drag's grasp is the file's now, or gone; one the file holds is let go at the next mouse-down.
+    const std::vector<core::Grasp>& held = simulation_->grasps();
+    mouse_->endDrag(std::any_of(held.begin(), held.end(),
+                                [](const core::Grasp& grasp) { return grasp.id == MouseDrag::kMouseGraspId; }));
+  }
   cancelStep("~load_state replaced the state");
   if (new_texture) simulation_->setVertexColors(colors);
   timer_.setPeriod(ros::Duration(simulation_->options().frameDuration_s()));
@@ -777,6 +796,7 @@ bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::L
   std::ostringstream message;
   message << "loaded frame " << simulation_->state().frame << " (t = " << simulation_->state().time_s << " s, "
           << grid.rows << "x" << grid.cols << ", " << simulation_->grasps().size() << " grasps) from " << request.path
+          << (urdf_added > 0 ? "; added the URDF's " + std::to_string(urdf_added) + " colliders it did not hold" : "")
           << letGoText(core::letGo(grasps_before, simulation_->grasps()), core::letGo(grippers_before, simulation_->grippers()));
   response.success = true;
   response.message = message.str();

@@ -53,8 +53,9 @@ void MouseDrag::update(const core::Simulation& simulation, const std::string& fr
   server_->applyChanges();
 }
 
-void MouseDrag::endDrag() {
+void MouseDrag::endDrag(bool grasp_restored) {
   dragging_ = false;
+  restored_grasp_ = grasp_restored;
   last_shape_ = ros::Time();
 }
 
@@ -77,6 +78,8 @@ void MouseDrag::onFeedback(const visualization_msgs::InteractiveMarkerFeedbackCo
     // No particle where tf cannot place the click (the picker says why): no drag begins, so its updates
     // grab nothing either (a grab with particle -1 would take whatever lies nearest a later target).
     if (particle < 0) return;
+    if (restored_grasp_ && !dragging_) grasp_(graspMessage(feedback->header, cloth_sim::Grasp::RELEASE));
+    restored_grasp_ = false;
     particle_ = particle;
     grab_point_m_ = clicked_m;
     grab_frame_ = feedback->header.frame_id;

@@ -66,8 +66,10 @@ TEST(Sleep, ASheetLyingOnTheFloorFallsAsleepAndKeepsItsStateBitForBitBetweenChec
     const FrameReport report = simulation.advanceFrame();
     ASSERT_TRUE(report.stable) << report.reason;
     if (isCheckFrame(simulation)) {
-      // Computed once a second: the sheet is still at rest, so it sleeps on.
+      // Computed once a second: the sheet is still at rest, so it sleeps on (what a report of the cloth
+      // says: a node whose 1 Hz diagnostics fell on the check frames read asleep False every time).
       EXPECT_FALSE(report.asleep) << "frame " << simulation.state().frame << " is a check frame";
+      EXPECT_TRUE(report.sleeping) << "frame " << simulation.state().frame << " found it at rest";
       EXPECT_GT(report.substeps_used, 0);
       EXPECT_LE((simulation.state().positions_m - simulation.guardMemory().calm_anchor_m).colwise().norm().maxCoeff(),
                 Simulation::sleepAllowance_m(simulation.options()));
@@ -76,6 +78,7 @@ TEST(Sleep, ASheetLyingOnTheFloorFallsAsleepAndKeepsItsStateBitForBitBetweenChec
       continue;
     }
     ASSERT_TRUE(report.asleep) << "frame " << simulation.state().frame << " woke with nothing to wake it";
+    EXPECT_TRUE(report.sleeping);
     EXPECT_EQ(report.substeps_used, 0);
     EXPECT_EQ(report.steps.solver_iterations, 0);
     EXPECT_TRUE(simulation.state().positions_m == last.positions_m) << "frame " << simulation.state().frame;
@@ -211,6 +214,7 @@ TEST(Sleep, EveryInputWakesItBeforeTheNextFrameAndTheClothMoves) {
     const ClothState woken = simulation.state();
     const FrameReport report = simulation.advanceFrame();
     EXPECT_FALSE(report.asleep) << waker.name << " did not wake it";
+    EXPECT_FALSE(report.sleeping) << waker.name << " woke it, but the report says it sleeps";
     EXPECT_GT(report.substeps_used, 0) << waker.name;
     for (int frame = 0; frame < 10; ++frame) EXPECT_FALSE(simulation.advanceFrame().asleep) << waker.name;
     EXPECT_GT((simulation.state().positions_m - woken.positions_m).colwise().norm().maxCoeff(), 1e-4)

@@ -222,6 +222,27 @@ TEST(GraspCommandQueue, AFloodKeepsTheLastCommandOfEachIdInTheOrderOfTheirLastAr
   EXPECT_EQ(dragged.front()->target.x, 99.0);
 }
 
+TEST(GraspCommandQueue, AGrabAfterAPendingReleaseOfItsIdIsKeptBesideIt) {
+  // An audit's, through the mouse: a new drag released the id's grasp and grabbed the clicked particle, the
+  // GRAB replaced the pending RELEASE, and the GRAB alone dragged the particle the id held before.
+  cloth_sim::GraspCommandQueue queue;
+  queue.push(graspCommand(7, cloth_sim::Grasp::RELEASE));
+  queue.push(graspCommand(7, cloth_sim::Grasp::GRAB, 1.0));
+  queue.push(graspCommand(7, cloth_sim::Grasp::GRAB, 2.0));  // the new grasp dragged: it replaces the GRAB only
+  std::vector<cloth_sim::Grasp::ConstPtr> pending = queue.take();
+  ASSERT_EQ(pending.size(), 2u);
+  EXPECT_EQ(pending[0]->action, cloth_sim::Grasp::RELEASE);
+  EXPECT_EQ(pending[1]->action, cloth_sim::Grasp::GRAB);
+  EXPECT_EQ(pending[1]->target.x, 2.0);
+  // A later RELEASE ends both.
+  queue.push(graspCommand(7, cloth_sim::Grasp::RELEASE));
+  queue.push(graspCommand(7, cloth_sim::Grasp::GRAB));
+  queue.push(graspCommand(7, cloth_sim::Grasp::RELEASE));
+  pending = queue.take();
+  ASSERT_EQ(pending.size(), 1u);
+  EXPECT_EQ(pending[0]->action, cloth_sim::Grasp::RELEASE);
+}
+
 TEST(GraspCommandQueue, PastItsIdLimitGrabsMakeRoomAndReleasesStay) {
   cloth_sim::GraspCommandQueue queue;
   queue.push(graspCommand(0, cloth_sim::Grasp::RELEASE));

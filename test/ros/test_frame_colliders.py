@@ -11,6 +11,10 @@ test_robot.urdf (a sphere, a cylinder, a box and a mesh link). This test publish
 - the node never re-broadcasts the colliders' frames on /tf.
 """
 import math
+import os
+import signal
+import subprocess
+import tempfile
 import threading
 import time
 import unittest
@@ -19,6 +23,7 @@ import numpy as np
 import rospy
 import rostest
 from cloth_sim.msg import ClothState
+from cloth_sim.srv import LoadState, SaveState
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import TransformStamped
 from tf2_msgs.msg import TFMessage
@@ -195,6 +200,35 @@ class FrameColliders(unittest.TestCase):
         self.assertTrue(self.wait_for(lambda: len(self.states) > 50))
         with self.lock:
             self.assertEqual(self.rebroadcast, [])
+
+    def test_z_a_state_saved_without_the_urdf_gets_its_colliders_when_loaded(self):
+        # Last (its load replaces the capsule of ~frame_colliders). An audit's: a state file saved by a node
+        # without this URDF replaced the node's URDF colliders with its own none, and the robot's links passed
+        # through the cloth until the node restarted. A second node of the same scene, without a URDF, saves.
+        plain = subprocess.Popen(["rosrun", "cloth_sim", "cloth_node", "__name:=plain_node", "_scene:=hanging"],
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            rospy.wait_for_service("/plain_node/save_state", timeout=DEADLINE_S)
+            path = os.path.join(tempfile.mkdtemp(prefix="test_frame_colliders_"), "plain.state")
+            saved = rospy.ServiceProxy("/plain_node/save_state", SaveState)(path)
+            self.assertTrue(saved.success, saved.message)
+        finally:
+            plain.send_signal(signal.SIGINT)
+            plain.wait(timeout=DEADLINE_S)
+        loaded = rospy.ServiceProxy("/cloth_node/load_state", LoadState)(path)
+        self.assertTrue(loaded.success, loaded.message)
+        self.assertIn("added the URDF's 3 colliders it did not hold", loaded.message)
+        # The file's own colliders (none) and the URDF's three, posed from their frames.
+        with self.lock:
+            type(self).diagnostics = None  # on_diagnostics sets the class's
+
+        def urdf_only():
+            if self.diagnostics is None:
+                return False
+            values = {v.key: v.value for v in self.diagnostics.values}
+            return values.get("frame colliders") == "3" and values.get("frame colliders posed") == "3"
+        self.assertTrue(self.wait_for(urdf_only), "diagnostics never showed the URDF's 3 frame colliders, posed: %s"
+                        % (self.diagnostics,))
 
 
 if __name__ == "__main__":

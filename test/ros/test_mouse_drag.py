@@ -8,6 +8,8 @@ POSE_UPDATEs moving the marker 0.3 m up and 0.3 m out of the cloth's plane, then
 follow the mouse there, and fall once let go.
 """
 import math
+import os
+import tempfile
 import threading
 import time
 import unittest
@@ -15,6 +17,7 @@ import unittest
 import rospy
 import rostest
 from cloth_sim.msg import ClothState
+from cloth_sim.srv import LoadState, SaveState
 from geometry_msgs.msg import Point, TransformStamped
 from std_srvs.srv import Trigger
 from tf2_msgs.msg import TFMessage
@@ -23,6 +26,7 @@ from visualization_msgs.msg import InteractiveMarkerFeedback, InteractiveMarkerI
 DEADLINE_S = 20.0
 ROWS, COLS = 20, 20
 CORNER = (ROWS - 1) * COLS  # bottom-left, free
+OTHER_CORNER = ROWS * COLS - 1  # bottom-right, free
 DRAG = (0.0, 0.3, 0.3)  # m, world frame: how far the mouse moves the marker
 # The mouse's grasp uses the scene's grasp_stiffness, 50 N/m: holding part of the cloth's 4.9 N weight it
 # sits up to 0.1 m short of the target; 0.15 m leaves room for the swing. The corner starts 0.42 m away.
@@ -164,6 +168,46 @@ class MouseDrag(unittest.TestCase):
                                      deadline_s=NOT_FOLLOWED_S, keep_doing=lambda: self.feedback.publish(drag))
         self.feedback.publish(self.feedback_message(InteractiveMarkerFeedback.MOUSE_UP, marker_position=DRAG))
         self.assertIsNone(again, "after ~reset the drag's updates grabbed the corner again")
+
+    def test_after_a_state_saved_mid_drag_is_loaded_a_click_drags_the_clicked_particle(self):
+        # An audit's: the file restored the mouse's grasp (id 4294967295) on the bottom-left corner, and the
+        # next mouse-down's GRAB of that id only moved its target: a click on the bottom-right corner dragged
+        # the bottom-left one across the cloth. The restored grasp is let go at the next mouse-down.
+        rospy.wait_for_service("/cloth_node/save_state", timeout=DEADLINE_S)
+        save = rospy.ServiceProxy("/cloth_node/save_state", SaveState)
+        load = rospy.ServiceProxy("/cloth_node/load_state", LoadState)
+        corner = self.free_corner()
+        clicked = Point(corner.x + 0.01, corner.y, corner.z + 0.01)
+        target = Point(clicked.x + DRAG[0], clicked.y + DRAG[1], clicked.z + DRAG[2])
+        self.feedback.publish(self.feedback_message(InteractiveMarkerFeedback.MOUSE_DOWN, mouse_point=clicked))
+        drag = self.feedback_message(InteractiveMarkerFeedback.POSE_UPDATE, marker_position=DRAG)
+        followed = self.states.wait_for(lambda s: distance(s.positions[CORNER], target) < TOLERANCE_M,
+                                        keep_doing=lambda: self.feedback.publish(drag))
+        self.assertIsNotNone(followed, "the corner never followed the drag: the test would prove nothing")
+        path = os.path.join(tempfile.mkdtemp(prefix="test_mouse_drag_"), "mid_drag.state")
+        saved = save(path)
+        self.assertTrue(saved.success, saved.message)
+        self.feedback.publish(self.feedback_message(InteractiveMarkerFeedback.MOUSE_UP, marker_position=DRAG))
+        loaded = load(path)
+        self.assertTrue(loaded.success, loaded.message)
+        self.assertIn("1 grasps", loaded.message, "the file does not hold the mouse's grasp: the test would prove nothing")
+        # A new drag from the bottom-right corner, towards the middle of the cloth's bottom edge.
+        start = self.states.wait_for(lambda s: True)
+        self.assertIsNotNone(start, "no ~state after the load")
+        other = start.positions[OTHER_CORNER]
+        other_clicked = Point(other.x - 0.01, other.y, other.z + 0.01)
+        other_target = Point(other_clicked.x - 0.3, other_clicked.y + 0.3, other_clicked.z + 0.3)
+        self.feedback.publish(self.feedback_message(InteractiveMarkerFeedback.MOUSE_DOWN, mouse_point=other_clicked))
+        other_drag = self.feedback_message(InteractiveMarkerFeedback.POSE_UPDATE, marker_position=(-0.3, 0.3, 0.3))
+        moved = self.states.wait_for(lambda s: distance(s.positions[OTHER_CORNER], other_target) < TOLERANCE_M,
+                                     keep_doing=lambda: self.feedback.publish(other_drag))
+        last = self.states.latest
+        self.feedback.publish(self.feedback_message(InteractiveMarkerFeedback.MOUSE_UP, marker_position=(-0.3, 0.3, 0.3)))
+        self.assertIsNotNone(moved, "the clicked corner stayed %.3f m from its target; the file's corner is %.3f m "
+                             "from it" % (distance(last.positions[OTHER_CORNER], other_target),
+                                          distance(last.positions[CORNER], other_target)))
+        self.assertGreater(distance(moved.positions[CORNER], other_target), TOLERANCE_M,
+                           "the file's corner was dragged to the new click's target")
 
     def test_click_drag_and_let_go_moves_the_clicked_particle(self):
         deadline = time.monotonic() + DEADLINE_S

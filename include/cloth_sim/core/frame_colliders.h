@@ -35,6 +35,12 @@ struct FrameCollider {
   Eigen::Vector3d offset_m = Eigen::Vector3d::Zero();       ///< the shape's origin in the frame
   Eigen::Vector3d rpy_rad = Eigen::Vector3d::Zero();        ///< the shape's orientation in the frame
 
+  /// Every field equal (a node's URDF colliders against those a state file holds).
+  bool operator==(const FrameCollider& other) const {
+    return frame == other.frame && shape == other.shape && radius_m == other.radius_m &&
+           length_m == other.length_m && size_m == other.size_m && offset_m == other.offset_m &&
+           rpy_rad == other.rpy_rad;
+  }
   /// The shape's frame in the collider's tf frame.
   Pose offsetPose() const;
   /// The radius of a sphere about the shape's origin that holds the whole shape, m.

@@ -79,6 +79,10 @@ struct FrameReport {
   /// state is the last frame's with time and frame number advanced; substeps_used and steps are 0, and
   /// contacts and self_collision are empty.
   bool asleep = false;
+  /// The cloth sleeps after the frame: it slept through it, or the frame was one a sleeping cloth computes
+  /// once a second to check on itself (Simulation::sleepCheckFrames) and found it still at rest. What a
+  /// report of the cloth's state says (asleep alone is false on every check frame).
+  bool sleeping = false;
 };
 
 class Simulation {

@@ -2,9 +2,11 @@
 // the last command of each grasp id. Under a flood (~grasp at 900 Hz beside ~wind at 10 kHz) the
 // subscriber's own queue of 10 dropped messages while the spin thread was busy with a frame, and a
 // dropped RELEASE left the cloth held for good (9 of 12 trials). Here a command is only ever replaced by a
-// later command for the same id, which is what the simulation would have done with it anyway (a GRAB of
-// a held id drags it, a RELEASE lets it go): the last command of each id is kept, up to kMaxPendingIds ids
-// waiting at once (past that a flood of new ids makes room as below).
+// later command for the same id where that is what the simulation would have done with it anyway (a GRAB
+// of a held id drags it, a RELEASE lets it go): a RELEASE replaces the id's pending commands, a GRAB its
+// pending GRAB; a GRAB after a pending RELEASE is kept beside it (a new grasp, perhaps of another particle:
+// alone it would have dragged the particle the id held). So at most a RELEASE and a GRAB wait per id, up to
+// kMaxPendingIds commands at once (past that a flood of new ids makes room as below).
 #pragma once
 
 #include "cloth_sim/Grasp.h"
@@ -23,8 +25,8 @@ class GraspCommandQueue {
   /// RELEASE makes the oldest RELEASE give way.
   static constexpr std::size_t kMaxPendingIds = 1024;
 
-  /// Any thread. Replaces the pending command of the same id, if any (the new one goes last). True when
-  /// the queue was empty before: the caller then schedules a drain.
+  /// Any thread. Replaces the id's pending commands as above (the new one goes last). True when the queue
+  /// was empty before: the caller then schedules a drain.
   bool push(const cloth_sim::Grasp::ConstPtr& command);
   /// Any thread: every pending command, oldest first, leaving the queue empty.
   std::vector<cloth_sim::Grasp::ConstPtr> take();
@@ -33,7 +35,7 @@ class GraspCommandQueue {
 
  private:
   std::mutex mutex_;
-  std::vector<cloth_sim::Grasp::ConstPtr> pending_;  ///< one per id, in the order of their latest arrival
+  std::vector<cloth_sim::Grasp::ConstPtr> pending_;  ///< at most a RELEASE then a GRAB per id, in arrival order
   std::size_t dropped_ = 0;
 };
 

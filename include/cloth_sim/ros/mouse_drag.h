@@ -43,7 +43,10 @@ class MouseDrag {
   void update(const core::Simulation& simulation, const std::string& frame_id, const ros::Time& now);
   /// A reset or a load let the drag's grasp go: the rest of the drag (its pose updates and mouse-up) grabs
   /// and releases nothing, until the next mouse-down; the marker is redrawn over the cloth as it stands.
-  void endDrag();
+  /// `grasp_restored`: the simulation holds a grasp with the mouse's id all the same (a state file saved
+  /// mid-drag), which the next mouse-down releases before it grabs: a GRAB of an id already held moves
+  /// that grasp's target and keeps its particle, so the click dragged the file's particle, not its own.
+  void endDrag(bool grasp_restored = false);
 
  private:
   void onFeedback(const visualization_msgs::InteractiveMarkerFeedbackConstPtr& feedback);
@@ -56,6 +59,7 @@ class MouseDrag {
   int particle_ = -1;
   std::unique_ptr<interactive_markers::InteractiveMarkerServer> server_;
   bool dragging_ = false;
+  bool restored_grasp_ = false;  ///< the simulation holds a mouse grasp no drag of ours made (endDrag)
   /// Where the mouse went down (in the marker's frame) and where the marker stood then.
   Eigen::Vector3d grab_point_m_ = Eigen::Vector3d::Zero();
   std::string grab_frame_;  ///< the frame of the mouse-down that began the drag
