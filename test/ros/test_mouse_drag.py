@@ -95,6 +95,19 @@ class MouseDrag(unittest.TestCase):
         self.assertIsNotNone(start, "no ~state")
         return start.positions[CORNER]
 
+    def drag_the_corner(self):
+        """Clicks the free corner and drags it by DRAG until it follows: (target, the drag's update, the
+        state that followed it). The later checks of a test then prove something about a live drag."""
+        corner = self.free_corner()
+        clicked = Point(corner.x + 0.01, corner.y, corner.z + 0.01)
+        target = Point(clicked.x + DRAG[0], clicked.y + DRAG[1], clicked.z + DRAG[2])
+        self.feedback.publish(self.feedback_message(InteractiveMarkerFeedback.MOUSE_DOWN, mouse_point=clicked))
+        drag = self.feedback_message(InteractiveMarkerFeedback.POSE_UPDATE, marker_position=DRAG)
+        followed = self.states.wait_for(lambda s: distance(s.positions[CORNER], target) < TOLERANCE_M,
+                                        keep_doing=lambda: self.feedback.publish(drag))
+        self.assertIsNotNone(followed, "the corner never followed the drag: the test would prove nothing")
+        return target, drag, followed
+
     def test_a_drag_whose_mouse_down_was_dropped_grabs_nothing(self):
         # The mouse-down names a frame tf does not know, so the node drops its grab; pose updates in
         # another frame must not grab the cloth after all (they did: the corner followed them).
@@ -147,14 +160,7 @@ class MouseDrag(unittest.TestCase):
     def test_a_reset_ends_the_drag_and_its_later_updates_grab_nothing(self):
         # An audit's: ~reset released the mouse's grasp (id 4294967295), and the drag's next pose update
         # grabbed the corner again. The drag follows first, so the test proves the drag was live.
-        corner = self.free_corner()
-        clicked = Point(corner.x + 0.01, corner.y, corner.z + 0.01)
-        target = Point(clicked.x + DRAG[0], clicked.y + DRAG[1], clicked.z + DRAG[2])
-        self.feedback.publish(self.feedback_message(InteractiveMarkerFeedback.MOUSE_DOWN, mouse_point=clicked))
-        drag = self.feedback_message(InteractiveMarkerFeedback.POSE_UPDATE, marker_position=DRAG)
-        followed = self.states.wait_for(lambda s: distance(s.positions[CORNER], target) < TOLERANCE_M,
-                                        keep_doing=lambda: self.feedback.publish(drag))
-        self.assertIsNotNone(followed, "the corner never followed the drag: the test would prove nothing")
+        target, drag, followed = self.drag_the_corner()
         rospy.wait_for_service("/cloth_node/reset", timeout=DEADLINE_S)
         answer = rospy.ServiceProxy("/cloth_node/reset", Trigger)()
         self.assertTrue(answer.success, answer.message)
@@ -176,14 +182,7 @@ class MouseDrag(unittest.TestCase):
         rospy.wait_for_service("/cloth_node/save_state", timeout=DEADLINE_S)
         save = rospy.ServiceProxy("/cloth_node/save_state", SaveState)
         load = rospy.ServiceProxy("/cloth_node/load_state", LoadState)
-        corner = self.free_corner()
-        clicked = Point(corner.x + 0.01, corner.y, corner.z + 0.01)
-        target = Point(clicked.x + DRAG[0], clicked.y + DRAG[1], clicked.z + DRAG[2])
-        self.feedback.publish(self.feedback_message(InteractiveMarkerFeedback.MOUSE_DOWN, mouse_point=clicked))
-        drag = self.feedback_message(InteractiveMarkerFeedback.POSE_UPDATE, marker_position=DRAG)
-        followed = self.states.wait_for(lambda s: distance(s.positions[CORNER], target) < TOLERANCE_M,
-                                        keep_doing=lambda: self.feedback.publish(drag))
-        self.assertIsNotNone(followed, "the corner never followed the drag: the test would prove nothing")
+        target, drag, followed = self.drag_the_corner()
         path = os.path.join(tempfile.mkdtemp(prefix="test_mouse_drag_"), "mid_drag.state")
         saved = save(path)
         self.assertTrue(saved.success, saved.message)
