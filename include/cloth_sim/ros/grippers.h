@@ -27,7 +27,7 @@ class Grippers {
   static constexpr const char* kWrenchTopicSuffix = "/wrench";
   /// A gripper frame whose newest transform is older than this at a frame's time counts as lost: the
   /// particles stay where it was last seen and the diagnostics WARN naming it, s.
-  static constexpr double kLostAfter_s = 0.5;
+  static constexpr double kLostAfter_s = kFrameLostAfter_s;
 
   /// `simulation` returns the running simulation (the node replaces it on ~load_scene). `next_frame_end`
   /// returns the time the node's next frame ends as its frame clock stands, the time its next beforeFrame
