@@ -21,6 +21,7 @@
 #include <fstream>
 #include <optional>
 #include <iostream>
+#include <iterator>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -44,6 +45,9 @@ namespace core = cloth_sim::core;
 constexpr int kMaxRepeat = 10000;
 /// The most --frames before the render: a million frames are 5.5 hours of a 50 Hz scene.
 constexpr int kMaxSettleFrames = 1000000;
+/// The options that take a value (every option but --help).
+constexpr const char* kValueFlags[] = {"--scene", "--rows",  "--cols", "--frames", "--repeat",
+                                       "--width", "--height", "--eye", "--target", "--out"};
 /// Eye and target closer than this, m, give no view direction.
 constexpr double kMinViewDistance_m = 1e-6;
 /// |sin| of the angle between the view and world z below which z cannot be the image's up (their cross product
@@ -102,6 +106,10 @@ bool parseArguments(int argc, char** argv, ToolOptions* options, bool* help, std
       *help = true;
       return true;
     }
+    if (std::find(std::begin(kValueFlags), std::end(kValueFlags), flag) == std::end(kValueFlags)) {
+      *error = "unknown option " + flag;
+      return false;
+    }
     if (i + 1 >= argc) {
       *error = flag + " needs a value";
       return false;
@@ -144,12 +152,17 @@ bool parseArguments(int argc, char** argv, ToolOptions* options, bool* help, std
       ok = parseVector(value, &options->target_m);
     } else if (flag == "--out") {
       options->out_dir = value;
-    } else {
-      *error = "unknown option " + flag;
-      return false;
     }
     if (!ok) {
       *error = flag + " " + value + ": not a valid value";
+      return false;
+    }
+  }
+  // Named as the user typed them (the scene's validation would name cameras[0].width).
+  for (const auto& [flag, pixels] : {std::pair{"--width", options->camera.width}, std::pair{"--height", options->camera.height}}) {
+    if (pixels < 1 || pixels > core::CameraLimits::kMaxImageSide) {
+      *error = std::string(flag) + " " + std::to_string(pixels) + ": takes a whole number of pixels in [1, " +
+               std::to_string(core::CameraLimits::kMaxImageSide) + "]";
       return false;
     }
   }
@@ -167,6 +180,17 @@ bool parseArguments(int argc, char** argv, ToolOptions* options, bool* help, std
     *error = "--frames " + std::to_string(options->frames) + ": takes a whole number in [0, " +
              std::to_string(kMaxSettleFrames) + "]";
     return false;
+  }
+  // Within the scene's coordinate limit: from 1e160 m away the view direction's length overflows, and the
+  // look-at rotation came out zero or NaN (an empty picture, and "nan" in camera.json, exit 0).
+  for (const auto& [flag, point] : {std::pair{"--eye", &options->eye_m}, std::pair{"--target", &options->target_m}}) {
+    if (point->cwiseAbs().maxCoeff() > core::OptionLimits::kMaxCoordinate_m) {
+      std::ostringstream out;
+      out << flag << " " << point->x() << "," << point->y() << "," << point->z() << ": each coordinate within +-"
+          << core::OptionLimits::kMaxCoordinate_m << " m (the scene's limit)";
+      *error = out.str();
+      return false;
+    }
   }
   if ((options->target_m - options->eye_m).norm() < kMinViewDistance_m) {
     *error = "--eye and --target are the same point: the camera has no direction to look in";
