@@ -3,6 +3,7 @@
 // published back. Declared in cloth_node.h.
 #include "cloth_sim/ros/cloth_node.h"
 
+#include <chrono>
 #include <cmath>
 #include <cstddef>
 #include <iterator>
@@ -46,8 +47,9 @@ void ClothNode::onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t) {
     spring.damping_N_s_per_m = config.*sliders.damping_N_s_per_m;
   }
   options.air_damping_N_s_per_m = config.air_damping;
-  // The wind sliders count only when they moved: comparing them with the wind in force would undo every
-  // wind that came in on ~wind (the sliders do not follow the topic) at the next reconfigure of anything.
+  // The wind sliders count only when they moved: comparing them with the wind in force would undo a wind
+  // that came in on ~wind less than kWindSliderPeriod_s ago (the sliders have not followed it yet) at the
+  // next reconfigure of anything.
   const Eigen::Vector3d wind(config.wind_x, config.wind_y, config.wind_z);
   std::string error;
   if (!core::parseIntegratorName(config.integrator, &options.integrator)) {
@@ -153,6 +155,14 @@ void ClothNode::pushConfig() {
   fillConfig(&config);
   reconfigure_wind_ = Eigen::Vector3d(config.wind_x, config.wind_y, config.wind_z);
   reconfigure_->updateConfig(config);
+}
+
+void ClothNode::followWindSliders() {
+  if (!reconfigure_ || simulation_->inputs().wind_m_per_s == reconfigure_wind_) return;
+  const auto now = std::chrono::steady_clock::now();
+  if (std::chrono::duration<double>(now - wind_sliders_pushed_).count() < kWindSliderPeriod_s) return;
+  wind_sliders_pushed_ = now;
+  pushConfig();
 }
 
 }  // namespace cloth_sim

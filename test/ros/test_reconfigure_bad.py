@@ -13,6 +13,7 @@ import dynamic_reconfigure.client
 import rospy
 import rostest
 from cloth_sim.msg import ClothState
+from geometry_msgs.msg import Vector3Stamped
 from rosgraph_msgs.msg import Log
 
 NODE = "/cloth_node"
@@ -111,6 +112,26 @@ class ReconfigureRefusals(unittest.TestCase):
         defaults = {d["name"]: d["default"] for d in self.client.get_parameter_descriptions(timeout=TIMEOUT_S)}
         self.assertEqual(defaults["integrator"], "implicit_euler")
         self.assertEqual(defaults["substeps"], 0)
+
+    def test_z_the_wind_sliders_follow_a_wind_message_so_zero_stops_it(self):
+        # An audit's: after a ~wind of 3 m/s the sliders still read 0, so a client setting wind_y 0 sent
+        # what the node thought the sliders showed: nothing changed, and the wind blew on (answered 3).
+        # Last (z): it changes the wind the refusals above compare.
+        wind = rospy.Publisher(NODE + "/wind", Vector3Stamped, queue_size=1, latch=True)
+        message = Vector3Stamped()
+        message.vector.y = 3.0
+        wind.publish(message)
+        deadline = rospy.Time.now() + rospy.Duration(TIMEOUT_S)
+        shown = None
+        while not rospy.is_shutdown() and rospy.Time.now() < deadline:
+            shown = self.client.get_configuration(timeout=TIMEOUT_S)["wind_y"]
+            if shown == 3.0:
+                break
+            rospy.sleep(0.1)
+        self.assertEqual(shown, 3.0, "the wind sliders do not show the ~wind in force")
+        answer = self.client.update_configuration({"wind_y": 0.0})
+        self.assertEqual(answer["wind_y"], 0.0, "setting wind_y 0 left the ~wind's 3 m/s in force")
+        wind.unregister()
 
 
 if __name__ == "__main__":

@@ -102,6 +102,9 @@ class ClothNode {
   static constexpr std::uint32_t kMarkerQueue = 2;
   /// ~wind messages held between two spins; each replaces the wind, so the last one held is in force.
   static constexpr std::uint32_t kWindQueue = 10;
+  /// The reconfigure wind sliders follow a ~wind within this, wall seconds (not at once: `make load` sends
+  /// ~wind at 10 kHz, and each update sets every slider on the parameter server).
+  static constexpr double kWindSliderPeriod_s = 0.5;
   /// ~grasp messages the subscriber holds for its receiving thread. That thread only files each one into
   /// GraspCommandQueue (microseconds), so this is reached only by a burst far beyond any hand's rate; the
   /// last command per id survives in the GraspCommandQueue whatever the spin thread is doing.
@@ -155,6 +158,8 @@ class ClothNode {
   /// After a reset or a replaced scene or state: the next publish sends everything, the mesh too, even at
   /// a stamp already sent (a held /clock).
   void forgetPublished();
+  /// The ~mesh rate for the running scene: ~mesh_rate if it was given, else the scene's frame rate, Hz.
+  double meshRate_hz() const;
   /// ~state alone, while someone subscribes and every field is finite; counted for the diagnostics' rate.
   void publishState(const ros::Time& stamp);
   /// The ROS time at which frame `frame` ends (from the anchor), or now if the clock is not anchored yet.
@@ -204,6 +209,10 @@ class ClothNode {
   /// The options in force as a reconfigure config.
   void fillConfig(cloth_sim::ClothConfig* config) const;
   void pushConfig();
+  /// Pushes the config when a ~wind left the wind sliders showing another wind, at most once per
+  /// kWindSliderPeriod_s: the sliders show the wind in force, and setting one to the value it showed
+  /// (0, while a ~wind blew) is a change.
+  void followWindSliders();
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
 
   ros::NodeHandle nh_;
@@ -249,6 +258,7 @@ class ClothNode {
   boost::recursive_mutex reconfigure_mutex_;
   /// The wind the reconfigure sliders last showed: a reconfigure changes the wind only if they moved.
   Eigen::Vector3d reconfigure_wind_ = Eigen::Vector3d::Zero();
+  std::chrono::steady_clock::time_point wind_sliders_pushed_;  ///< when followWindSliders last pushed
   diagnostic_updater::Updater diagnostics_;
 
   bool paused_ = false;
@@ -267,7 +277,10 @@ class ClothNode {
   /// Frames are due at anchor_time_ + k / frame_rate (ROS time: wall clock, or /clock under use_sim_time).
   ros::Time anchor_time_;
   ros::Time last_tick_;  ///< to notice /clock going backwards
-  std::unique_ptr<MeshSchedule> mesh_schedule_;  ///< at ~mesh_rate
+  std::unique_ptr<MeshSchedule> mesh_schedule_;  ///< at ~mesh_rate, or the scene's frame rate (meshRate_hz)
+  /// ~mesh_rate as given at start-up, Hz; none: the running scene's frame rate, which ~load_scene and
+  /// ~load_state may change.
+  std::optional<double> mesh_rate_given_hz_;
   std::uint64_t anchor_frame_ = 0;
   bool anchored_ = false;
 
