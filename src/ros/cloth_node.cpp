@@ -354,7 +354,6 @@ void ClothNode::onTimer(const ros::TimerEvent&) {
   // While paused, ~state repeats every tick (monitors and rviz keep seeing the cloth); while running it
   // comes once per frame.
   publish(now, paused_ || last_state_frame_ != simulation_->state().frame);
-  followWindSliders();
   diagnostics_.update();
 }
 

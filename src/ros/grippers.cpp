@@ -72,7 +72,7 @@ bool Grippers::onAttach(cloth_sim::Attach::Request& request, cloth_sim::Attach::
   if (const std::optional<double> age_s = staleAge_s(stamp, first_look)) {
     std::ostringstream message;
     message << name << ": the newest transform of frame '" << request.frame << "' is " << *age_s
-            << " s old at the next frame's end (a gripper follows a frame at most " << kLostAfter_s << " s stale)";
+            << " s old at the next frame's end (a gripper follows a frame at most " << kFrameLostAfter_s << " s stale)";
     response.message = message.str();
     return true;
   }

@@ -19,9 +19,10 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <optional>
 #include <iostream>
-#include <iterator>
+#include <map>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -45,9 +46,6 @@ namespace core = cloth_sim::core;
 constexpr int kMaxRepeat = 10000;
 /// The most --frames before the render: a million frames are 5.5 hours of a 50 Hz scene.
 constexpr int kMaxSettleFrames = 1000000;
-/// The options that take a value (every option but --help).
-constexpr const char* kValueFlags[] = {"--scene", "--rows",  "--cols", "--frames", "--repeat",
-                                       "--width", "--height", "--eye", "--target", "--out"};
 /// Eye and target closer than this, m, give no view direction.
 constexpr double kMinViewDistance_m = 1e-6;
 /// |sin| of the angle between the view and world z below which z cannot be the image's up (their cross product
@@ -100,13 +98,53 @@ bool parseArguments(int argc, char** argv, ToolOptions* options, bool* help, std
   options->camera.name = "tool";
   options->camera.frame = "tool_optical";
   *help = false;
+  // Every option that takes a value, with what reads it: "" when the value reads, else why not.
+  const auto integer = [](int* target) {
+    return [target](const std::string& value) -> std::string {
+      const auto parsed = parseInt(value);
+      if (!parsed) return "not a valid value";
+      *target = *parsed;
+      return "";
+    };
+  };
+  // A grid side the scene's limits allow; 0 or less was once ignored silently (the scene's own size ran).
+  const auto side = [](std::optional<int>* target) {
+    return [target](const std::string& value) -> std::string {
+      const auto parsed = parseInt(value);
+      if (!parsed || *parsed < core::OptionLimits::kMinGridSide || *parsed > core::OptionLimits::kMaxGridSide) {
+        return "takes a whole number in [" + std::to_string(core::OptionLimits::kMinGridSide) + ", " +
+               std::to_string(core::OptionLimits::kMaxGridSide) + "]";
+      }
+      *target = *parsed;
+      return "";
+    };
+  };
+  const auto vector = [](Eigen::Vector3d* target) {
+    return [target](const std::string& value) -> std::string {
+      return parseVector(value, target) ? "" : "not a valid value";
+    };
+  };
+  const auto text = [](std::string* target) {
+    return [target](const std::string& value) -> std::string {
+      *target = value;
+      return "";
+    };
+  };
+  const std::map<std::string, std::function<std::string(const std::string&)>> setters = {
+      {"--scene", text(&options->scene)},           {"--rows", side(&options->rows)},
+      {"--cols", side(&options->cols)},             {"--frames", integer(&options->frames)},
+      {"--repeat", integer(&options->repeat)},      {"--width", integer(&options->camera.width)},
+      {"--height", integer(&options->camera.height)}, {"--eye", vector(&options->eye_m)},
+      {"--target", vector(&options->target_m)},     {"--out", text(&options->out_dir)}};
+  std::map<std::string, std::string> typed;  // each option's value as typed, for the messages below
   for (int i = 1; i < argc; ++i) {
     const std::string flag = argv[i];
     if (flag == "--help" || flag == "-h") {
       *help = true;
       return true;
     }
-    if (std::find(std::begin(kValueFlags), std::end(kValueFlags), flag) == std::end(kValueFlags)) {
+    const auto setter = setters.find(flag);
+    if (setter == setters.end()) {
       *error = "unknown option " + flag;
       return false;
     }
@@ -115,48 +153,12 @@ bool parseArguments(int argc, char** argv, ToolOptions* options, bool* help, std
       return false;
     }
     const std::string value = argv[++i];
-    bool ok = true;
-    const auto integer = [&](int* target) {
-      const auto parsed = parseInt(value);
-      ok = parsed.has_value();
-      if (ok) *target = *parsed;
-    };
-    // A grid side the scene's limits allow; 0 or less was once ignored silently (the scene's own size ran).
-    const auto side = [&](std::optional<int>* target) {
-      const auto parsed = parseInt(value);
-      if (!parsed || *parsed < core::OptionLimits::kMinGridSide || *parsed > core::OptionLimits::kMaxGridSide) {
-        *error = flag + " " + value + ": takes a whole number in [" + std::to_string(core::OptionLimits::kMinGridSide) +
-                 ", " + std::to_string(core::OptionLimits::kMaxGridSide) + "]";
-        return false;
-      }
-      *target = *parsed;
-      return true;
-    };
-    if (flag == "--scene") {
-      options->scene = value;
-    } else if (flag == "--rows") {
-      if (!side(&options->rows)) return false;
-    } else if (flag == "--cols") {
-      if (!side(&options->cols)) return false;
-    } else if (flag == "--frames") {
-      integer(&options->frames);
-    } else if (flag == "--repeat") {
-      integer(&options->repeat);
-    } else if (flag == "--width") {
-      integer(&options->camera.width);
-    } else if (flag == "--height") {
-      integer(&options->camera.height);
-    } else if (flag == "--eye") {
-      ok = parseVector(value, &options->eye_m);
-    } else if (flag == "--target") {
-      ok = parseVector(value, &options->target_m);
-    } else if (flag == "--out") {
-      options->out_dir = value;
-    }
-    if (!ok) {
-      *error = flag + " " + value + ": not a valid value";
+    const std::string problem = setter->second(value);
+    if (!problem.empty()) {
+      *error = flag + " " + value + ": " + problem;
       return false;
     }
+    typed[flag] = value;
   }
   // Named as the user typed them (the scene's validation would name cameras[0].width).
   for (const auto& [flag, pixels] : {std::pair{"--width", options->camera.width}, std::pair{"--height", options->camera.height}}) {
@@ -186,8 +188,8 @@ bool parseArguments(int argc, char** argv, ToolOptions* options, bool* help, std
   for (const auto& [flag, point] : {std::pair{"--eye", &options->eye_m}, std::pair{"--target", &options->target_m}}) {
     if (point->cwiseAbs().maxCoeff() > core::OptionLimits::kMaxCoordinate_m) {
       std::ostringstream out;
-      out << flag << " " << point->x() << "," << point->y() << "," << point->z() << ": each coordinate within +-"
-          << core::OptionLimits::kMaxCoordinate_m << " m (the scene's limit)";
+      out << flag << " " << typed[flag] << ": each coordinate within +-" << core::OptionLimits::kMaxCoordinate_m
+          << " m (the scene's limit)";
       *error = out.str();
       return false;
     }

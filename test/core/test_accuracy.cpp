@@ -364,8 +364,9 @@ TEST(DepthCameraToolCommandLine, RefusesAViewItCannotComputeAndNamesOptionsAsTyp
   // picture and wrote "nan" into camera.json, exit 0; --width 0 was named cameras[0].width, and an unknown
   // option last on the line "needs a value".
   const std::vector<std::pair<std::string, std::string>> refused = {
-      {"--eye 0,-2,1 --target 0,1e160,1", "--target 0,1e+160,1: each coordinate within +-1000 m"},
-      {"--eye 1e308,0,0 --target -1e308,0,0", "--eye 1e+308,0,0: each coordinate within +-1000 m"},
+      {"--eye 0,-2,1 --target 0,1e160,1", "--target 0,1e160,1: each coordinate within +-1000 m"},
+      {"--eye 1e308,0,0 --target -1e308,0,0", "--eye 1e308,0,0: each coordinate within +-1000 m"},
+      {"--eye 0,-1000.0000001,1", "--eye 0,-1000.0000001,1: each coordinate within +-1000 m"},
       {"--width 0", "--width 0: takes a whole number of pixels in [1, 4096]"},
       {"--height 4097", "--height 4097: takes a whole number of pixels in [1, 4096]"},
       {"--bogus", "unknown option --bogus"},

@@ -21,18 +21,28 @@ DEADLINE_S = 30.0
 WINDOW_FRAMES = 100     # ~state messages counted after the new scene runs
 MESH_SHARE = 0.8        # at least this many meshes per state (0.2 when the mesh kept the first scene's rate)
 FRAME_PERIOD_S = 0.02   # the hanging scene's 50 Hz
+OLD_FRAMES = 3          # frames of the 10 Hz scene seen before the new one is loaded (its counter then goes back)
 
 
 class MeshFollowsTheScene(unittest.TestCase):
     def test_the_mesh_comes_at_the_new_scenes_frame_rate(self):
         lock = threading.Lock()
         counts = {"state": 0, "mesh": 0}
+        loaded = {"done": False, "restarted": False, "frame_before": 0}
         stamps = []
 
         def on_state(message):
             with lock:
+                # The new scene counts its frames from 0: count from its first message on.
+                if loaded["done"] and not loaded["restarted"]:
+                    if message.frame >= loaded["frame_before"]:
+                        return
+                    loaded["restarted"] = True
+                    counts["state"] = counts["mesh"] = 0
+                    del stamps[:]
                 counts["state"] += 1
                 stamps.append(message.header.stamp.to_sec())
+                loaded["frame_before"] = max(loaded["frame_before"], message.frame)
 
         def on_mesh(_):
             with lock:
@@ -44,15 +54,13 @@ class MeshFollowsTheScene(unittest.TestCase):
         deadline = time.monotonic() + DEADLINE_S
         while time.monotonic() < deadline:
             with lock:
-                if counts["mesh"] > 0:
+                if counts["mesh"] > 0 and loaded["frame_before"] >= OLD_FRAMES:
                     break
             time.sleep(0.05)
+        with lock:
+            loaded["done"] = True  # from here a ~state whose frame went back is the new scene's
         answer = rospy.ServiceProxy(NODE + "/load_scene", LoadScene)(scene="hanging")
         self.assertTrue(answer.success, answer.message)
-        time.sleep(0.5)  # past the messages of the old scene still on their way
-        with lock:
-            counts["state"] = counts["mesh"] = 0
-            del stamps[:]
         while time.monotonic() < deadline + DEADLINE_S:
             with lock:
                 if counts["state"] >= WINDOW_FRAMES:

@@ -102,9 +102,6 @@ class ClothNode {
   static constexpr std::uint32_t kMarkerQueue = 2;
   /// ~wind messages held between two spins; each replaces the wind, so the last one held is in force.
   static constexpr std::uint32_t kWindQueue = 10;
-  /// The reconfigure wind sliders follow a ~wind within this, wall seconds (not at once: `make load` sends
-  /// ~wind at 10 kHz, and each update sets every slider on the parameter server).
-  static constexpr double kWindSliderPeriod_s = 0.5;
   /// ~grasp messages the subscriber holds for its receiving thread. That thread only files each one into
   /// GraspCommandQueue (microseconds), so this is reached only by a burst far beyond any hand's rate; the
   /// last command per id survives in the GraspCommandQueue whatever the spin thread is doing.
@@ -209,10 +206,9 @@ class ClothNode {
   /// The options in force as a reconfigure config.
   void fillConfig(cloth_sim::ClothConfig* config) const;
   void pushConfig();
-  /// Pushes the config when a ~wind left the wind sliders showing another wind, at most once per
-  /// kWindSliderPeriod_s: the sliders show the wind in force, and setting one to the value it showed
-  /// (0, while a ~wind blew) is a change.
-  void followWindSliders();
+  /// Whether a reconfigure request changes no slider: every value is the one the sliders last showed (the
+  /// options in force, the wind sliders' reconfigure_wind_).
+  bool changesNoSlider(const cloth_sim::ClothConfig& config) const;
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
 
   ros::NodeHandle nh_;
@@ -258,7 +254,6 @@ class ClothNode {
   boost::recursive_mutex reconfigure_mutex_;
   /// The wind the reconfigure sliders last showed: a reconfigure changes the wind only if they moved.
   Eigen::Vector3d reconfigure_wind_ = Eigen::Vector3d::Zero();
-  std::chrono::steady_clock::time_point wind_sliders_pushed_;  ///< when followWindSliders last pushed
   diagnostic_updater::Updater diagnostics_;
 
   bool paused_ = false;
