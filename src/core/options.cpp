@@ -489,10 +489,27 @@ void buildCurvatureBending(const SceneOptions& o, CurvatureBending* curvature, c
 
 namespace {
 
-/// Even-odd rule; a point within `tolerance` of an edge counts as inside.
-bool insidePolygon(const std::vector<Eigen::Vector2d>& polygon, const Eigen::Vector2d& point, double tolerance) {
-  bool inside = false;
+/// The polygon's edges (by their first corner i; the edge runs from corner i to the corner before it) whose
+/// v range, widened by `tolerance`, holds `v`, in corner order: the only edges that can cross the line of
+/// particles at v or pass within `tolerance` of one, so insidePolygon over them decides as over all edges.
+/// Per grid row, this takes a polygon of thousands of corners from seconds to milliseconds at 256 x 256.
+std::vector<std::size_t> edgesNearRow(const std::vector<Eigen::Vector2d>& polygon, double v, double tolerance) {
+  std::vector<std::size_t> edges;
   for (std::size_t i = 0, j = polygon.size() - 1; i < polygon.size(); j = i++) {
+    const double low = std::min(polygon[i].y(), polygon[j].y()) - tolerance;
+    const double high = std::max(polygon[i].y(), polygon[j].y()) + tolerance;
+    if (v >= low && v <= high) edges.push_back(i);
+  }
+  return edges;
+}
+
+/// Even-odd rule over `edges` (edgesNearRow of the point's row); a point within `tolerance` of an edge
+/// counts as inside.
+bool insidePolygon(const std::vector<Eigen::Vector2d>& polygon, const std::vector<std::size_t>& edges,
+                   const Eigen::Vector2d& point, double tolerance) {
+  bool inside = false;
+  for (const std::size_t i : edges) {
+    const std::size_t j = i == 0 ? polygon.size() - 1 : i - 1;
     const Eigen::Vector2d& a = polygon[i];
     const Eigen::Vector2d& b = polygon[j];
     const Eigen::Vector2d edge = b - a;
@@ -518,12 +535,14 @@ std::vector<std::uint8_t> outlineMask(const SceneOptions& o) {
   const double dv_m = o.height_m / (o.rows - 1);
   const double tolerance_m = kOnTheLine * std::min(du_m, dv_m);
   std::vector<std::uint8_t> inside(static_cast<std::size_t>(o.rows) * o.cols, 0);
+  const bool circle = o.outline.shape == OutlineOptions::Shape::kCircle;
   for (int r = 0; r < o.rows; ++r) {
+    const std::vector<std::size_t> edges = circle ? std::vector<std::size_t>()
+                                                  : edgesNearRow(o.outline.vertices_m, r * dv_m, tolerance_m);
     for (int c = 0; c < o.cols; ++c) {
       const Eigen::Vector2d uv(c * du_m, r * dv_m);
-      const bool in = o.outline.shape == OutlineOptions::Shape::kCircle
-                          ? (uv - o.outline.center_m).norm() <= o.outline.radius_m + tolerance_m
-                          : insidePolygon(o.outline.vertices_m, uv, tolerance_m);
+      const bool in = circle ? (uv - o.outline.center_m).norm() <= o.outline.radius_m + tolerance_m
+                             : insidePolygon(o.outline.vertices_m, edges, uv, tolerance_m);
       inside[static_cast<std::size_t>(r) * o.cols + c] = in ? 1 : 0;
     }
   }

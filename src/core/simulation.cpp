@@ -425,9 +425,8 @@ FrameReport Simulation::advanceFrame() {
     report.sleeping = true;
     return report;
   }
-  // Asleep before this frame, which then is its check frame (sleepsThrough's other conditions hold).
-  const bool was_sleeping = options_.sleep_speed_m_per_s > 0.0 && memory_.calm_frames >= sleepAfterFrames(options_) &&
-                            !driven && drive == memory_.drive_fingerprint;
+  // Asleep before this frame, which then is its check frame.
+  const bool was_sleeping = restsAsleep(driven, drive);
   if (memory_.calm_frames >= sleepAfterFrames(options_) && (driven || drive != memory_.drive_fingerprint)) {
     // Waking: what moves it now is not what `auto`'s scale was raised for (it came to rest before it
     // slept, and no trial came on the way: frameAutoScale). From one step a frame, the guard refines

@@ -113,11 +113,15 @@ int Simulation::sleepCheckFrames(const SceneOptions& options) {
   return std::max(1, static_cast<int>(std::ceil(SceneOptions::kSleepCheckPeriod_s * options.frame_rate_hz)));
 }
 
+bool Simulation::restsAsleep(bool driven, std::uint64_t drive) const {
+  return options_.sleep_speed_m_per_s > 0.0 && memory_.calm_frames >= sleepAfterFrames(options_) && !driven &&
+         drive == memory_.drive_fingerprint;
+}
+
 bool Simulation::sleepsThrough(bool driven, std::uint64_t drive) const {
   // By frame number, so that a restored run checks on the same frames.
   const bool check_frame = (state_.frame + 1) % static_cast<std::uint64_t>(sleepCheckFrames(options_)) == 0;
-  return options_.sleep_speed_m_per_s > 0.0 && memory_.calm_frames >= sleepAfterFrames(options_) && !driven &&
-         drive == memory_.drive_fingerprint && !check_frame;
+  return restsAsleep(driven, drive) && !check_frame;
 }
 
 void Simulation::sleepThroughFrame(FrameReport* report) {

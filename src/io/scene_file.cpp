@@ -28,6 +28,8 @@ struct WrongType {
   std::string expected;
 };
 
+/// The tag YAML gives a quoted scalar (yaml-cpp's Node::Tag()); a plain one's is "?".
+constexpr const char* kNonSpecificTag = "!";
 /// Most characters of a file's own text that an error message quotes: enough to recognise a typo, too few
 /// to leak a file that was never a scene (any ROS peer can name any file to ~load_scene).
 constexpr std::size_t kMaxQuotedChars = 32;
@@ -46,9 +48,12 @@ std::string quoted(const std::string& text) {
 }
 
 /// The YAML core-schema type of an explicitly tagged node ("int", "float", "bool", "str", ...), or "" when
-/// it carries no such tag (a scene file's plain scalar).
+/// it carries no such tag (a scene file's plain scalar). A quoted scalar ("true", '0.5') carries YAML's
+/// non-specific tag "!", which the core schema resolves to a string: it is one, as the parameter server
+/// (rosparam load) also takes it, not the number or bool it spells.
 std::string coreTagType(const YAML::Node& node) {
   const std::string& tag = node.Tag();
+  if (tag == kNonSpecificTag) return "str";
   const std::size_t prefix = std::char_traits<char>::length(kCoreTagPrefix);
   return tag.compare(0, prefix, kCoreTagPrefix) == 0 ? tag.substr(prefix) : std::string();
 }
@@ -143,6 +148,27 @@ std::vector<std::string> readPins(const YAML::Node& node) {
   return pins;
 }
 
+/// What is wrong with a map's keys, if anything: the first key that is not a name, not one of those
+/// allowed, or given twice (yaml-cpp keeps a key given twice as two entries).
+struct KeyProblem {
+  enum class Kind { kNone, kNotAName, kUnknown, kTwice } kind = Kind::kNone;
+  std::string key;
+};
+
+/// Checks a map's keys against `allowed`; on success *keys (if given) holds the keys as written.
+KeyProblem checkKeys(const YAML::Node& map, const std::vector<std::string>& allowed,
+                     std::set<std::string>* keys = nullptr) {
+  std::set<std::string> seen;
+  for (const auto& field : map) {
+    if (!field.first.IsScalar()) return {KeyProblem::Kind::kNotAName, std::string()};
+    const std::string name = field.first.Scalar();
+    if (std::find(allowed.begin(), allowed.end(), name) == allowed.end()) return {KeyProblem::Kind::kUnknown, name};
+    if (!seen.insert(name).second) return {KeyProblem::Kind::kTwice, name};
+  }
+  if (keys != nullptr) *keys = std::move(seen);
+  return {};
+}
+
 /// Reads a list of maps, each with its own known keys; `apply` sets one field.
 template <typename T>
 std::vector<T> readList(const YAML::Node& node, const std::vector<std::string>& fields,
@@ -152,16 +178,16 @@ std::vector<T> readList(const YAML::Node& node, const std::vector<std::string>& 
   for (const YAML::Node& entry : node) {
     if (!entry.IsMap()) throw WrongType{"a list of maps"};
     T item;
-    std::set<std::string> seen;
+    const KeyProblem problem = checkKeys(entry, fields);
+    if (problem.kind == KeyProblem::Kind::kNotAName) throw WrongType{"maps whose keys are names"};
+    if (problem.kind == KeyProblem::Kind::kUnknown) {
+      std::string known;
+      for (const std::string& f : fields) known += (known.empty() ? "" : ", ") + f;
+      throw WrongType{"maps with the keys " + known + " (got " + quoted(problem.key) + ")"};
+    }
+    if (problem.kind == KeyProblem::Kind::kTwice) throw WrongType{"maps with each key once ('" + problem.key + "' twice)"};
     for (const auto& field : entry) {
-      if (!field.first.IsScalar()) throw WrongType{"maps whose keys are names"};
       const std::string name = field.first.Scalar();
-      if (std::find(fields.begin(), fields.end(), name) == fields.end()) {
-        std::string known;
-        for (const std::string& f : fields) known += (known.empty() ? "" : ", ") + f;
-        throw WrongType{"maps with the keys " + known + " (got " + quoted(name) + ")"};
-      }
-      if (!seen.insert(name).second) throw WrongType{"maps with each key once ('" + name + "' twice)"};
       try {
         apply(name, field.second, item);
       } catch (const WrongType& wrong) {
@@ -194,16 +220,10 @@ MaterialOptions readMaterial(const YAML::Node& node) {
     return material;
   }
   if (!node.IsMap()) throw WrongType{presets};
-  const std::vector<std::string>& fields = materialFields();
-  std::set<std::string> seen;
-  for (const auto& field : node) {
-    if (!field.first.IsScalar()) throw WrongType{"a map whose keys are names"};
-    const std::string name = field.first.Scalar();
-    if (std::find(fields.begin(), fields.end(), name) == fields.end()) {
-      throw WrongType{presets + " (got the key " + quoted(name) + ")"};
-    }
-    if (!seen.insert(name).second) throw WrongType{"a map with each key once ('" + name + "' twice)"};
-  }
+  const KeyProblem problem = checkKeys(node, materialFields());
+  if (problem.kind == KeyProblem::Kind::kNotAName) throw WrongType{"a map whose keys are names"};
+  if (problem.kind == KeyProblem::Kind::kUnknown) throw WrongType{presets + " (got the key " + quoted(problem.key) + ")"};
+  if (problem.kind == KeyProblem::Kind::kTwice) throw WrongType{"a map with each key once ('" + problem.key + "' twice)"};
   material.damping_s = kDefaultMaterialDamping_s;
   // preset "" is a block written by hand (a state file saves it so).
   const std::string base = node["preset"] ? readScalar<std::string>(node["preset"], "a preset name", {"str"}) : "";
@@ -254,16 +274,11 @@ OutlineOptions readOutline(const YAML::Node& node) {
     return outline;
   }
   if (!node.IsMap()) throw wrong("got " + describe(node));
-  // The map's keys as written (yaml-cpp keeps a key given twice as two entries).
   const auto keysOf = [&](const YAML::Node& map, const std::vector<std::string>& allowed) {
     std::set<std::string> keys;
-    for (const auto& field : map) {
-      const std::string name = field.first.IsScalar() ? field.first.Scalar() : std::string();
-      if (std::find(allowed.begin(), allowed.end(), name) == allowed.end()) {
-        throw wrong("the key " + quoted(name) + " is not one of them");
-      }
-      if (!keys.insert(name).second) throw wrong("'" + name + "' twice");
-    }
+    const KeyProblem problem = checkKeys(map, allowed, &keys);
+    if (problem.kind == KeyProblem::Kind::kTwice) throw wrong("'" + problem.key + "' twice");
+    if (problem.kind != KeyProblem::Kind::kNone) throw wrong("the key " + quoted(problem.key) + " is not one of them");
     return keys;
   };
   const std::set<std::string> shapes = keysOf(node, {"circle", "polygon"});

@@ -133,7 +133,8 @@ bool ClothNode::start(std::string* error) {
   // The mesh is the heavy message (each vertex six times, with colours): a viewer may want it less often.
   const bool mesh_rate_given =
       parameters.getType() == XmlRpc::XmlRpcValue::TypeStruct && parameters.hasMember(Names::kMeshRateParam);
-  if (!mesh_rate_given) mesh_rate_hz = simulation_->options().frame_rate_hz;
+  if (mesh_rate_given) mesh_rate_given_hz_ = mesh_rate_hz;
+  mesh_rate_hz = meshRate_hz();
   if (!std::isfinite(mesh_rate_hz) || mesh_rate_hz <= 0.0 || mesh_rate_hz > core::OptionLimits::kMaxFrameRateHz) {
     *error = "parameter ~mesh_rate = " + std::to_string(mesh_rate_hz) + ": must be in (0, " +
              std::to_string(core::OptionLimits::kMaxFrameRateHz) + "] Hz";
@@ -305,6 +306,7 @@ void ClothNode::install(std::unique_ptr<core::Simulation> simulation) {
   if (mouse_) mouse_->endDrag();  // nor the mouse: its drag's grasp went with the old scene
   step_cost_ms_ = 0.0;  // the old scene's cost says nothing about this one's
   timer_.setPeriod(frame_period);
+  mesh_schedule_ = std::make_unique<MeshSchedule>(meshRate_hz());  // the new scene's frame rate, if that is it
   last_report_ = core::FrameReport();
   asleep_ = false;
   forgetPublished();  // the new scene goes out at the next publish
@@ -420,6 +422,10 @@ ros::Time ClothNode::frameTime(std::uint64_t frame) const {
   const double since_anchor_s =
       (static_cast<double>(frame) - static_cast<double>(anchor_frame_)) / simulation_->options().frame_rate_hz;
   return anchor_time_ + ros::Duration(since_anchor_s);
+}
+
+double ClothNode::meshRate_hz() const {
+  return mesh_rate_given_hz_ ? *mesh_rate_given_hz_ : simulation_->options().frame_rate_hz;
 }
 
 void ClothNode::forgetPublished() {
@@ -786,6 +792,7 @@ bool ClothNode::onLoadState(cloth_sim::LoadState::Request& request, cloth_sim::L
   cancelStep("~load_state replaced the state");
   if (new_texture) simulation_->setVertexColors(colors);
   timer_.setPeriod(ros::Duration(simulation_->options().frameDuration_s()));
+  mesh_schedule_ = std::make_unique<MeshSchedule>(meshRate_hz());  // the file's frame rate, if that is it
   last_report_ = core::FrameReport();
   step_cost_ms_ = 0.0;  // the file's options (integrator, substeps, tuning) may cost another amount a frame
   asleep_ = false;

@@ -3,6 +3,8 @@
 // published back. Declared in cloth_node.h.
 #include "cloth_sim/ros/cloth_node.h"
 
+#include <dynamic_reconfigure/Config.h>
+
 #include <cmath>
 #include <cstddef>
 #include <iterator>
@@ -46,9 +48,14 @@ void ClothNode::onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t) {
     spring.damping_N_s_per_m = config.*sliders.damping_N_s_per_m;
   }
   options.air_damping_N_s_per_m = config.air_damping;
-  // The wind sliders count only when they moved: comparing them with the wind in force would undo every
-  // wind that came in on ~wind (the sliders do not follow the topic) at the next reconfigure of anything.
+  // The wind sliders count when they moved: the sliders do not follow a ~wind (they would have to be set on
+  // the parameter server from the frame thread, which roscpp blocks for good while the master is down), so
+  // comparing them with the wind in force would undo a ~wind at the next reconfigure of anything. They
+  // count too when the request changes no slider at all: a client set a slider to the value it shows
+  // (`dynparam set ... wind_y 0` while a ~wind blows and the slider reads 0), and means that value.
   const Eigen::Vector3d wind(config.wind_x, config.wind_y, config.wind_z);
+  const bool wind_moved =
+      wind != reconfigure_wind_ || (wind != simulation_->inputs().wind_m_per_s && changesNoSlider(config));
   std::string error;
   if (!core::parseIntegratorName(config.integrator, &options.integrator)) {
     error = "integrator '" + config.integrator + "' is unknown";
@@ -65,7 +72,7 @@ void ClothNode::onReconfigure(cloth_sim::ClothConfig& config, std::uint32_t) {
   }
   if (!error.empty() || !simulation_->retune(options, &error)) {
     ROS_WARN("cloth_node: reconfigure refused: %s; the previous values stay", error.c_str());
-  } else if (wind != reconfigure_wind_) {
+  } else if (wind_moved) {
     simulation_->setWindVelocity(wind);  // the wind is an input, not an option: retune leaves it alone
   }
   // Answer and publish what is in force (a refused change is not; a ~wind is), so the sliders follow.
@@ -153,6 +160,18 @@ void ClothNode::pushConfig() {
   fillConfig(&config);
   reconfigure_wind_ = Eigen::Vector3d(config.wind_x, config.wind_y, config.wind_z);
   reconfigure_->updateConfig(config);
+}
+
+bool ClothNode::changesNoSlider(const cloth_sim::ClothConfig& config) const {
+  cloth_sim::ClothConfig shown;
+  fillConfig(&shown);
+  shown.wind_x = reconfigure_wind_.x();
+  shown.wind_y = reconfigure_wind_.y();
+  shown.wind_z = reconfigure_wind_.z();
+  dynamic_reconfigure::Config requested_message, shown_message;
+  config.__toMessage__(requested_message);
+  shown.__toMessage__(shown_message);
+  return requested_message == shown_message;
 }
 
 }  // namespace cloth_sim

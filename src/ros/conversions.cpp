@@ -182,41 +182,14 @@ bool fromStateMessage(const cloth_sim::ClothState& message, int max_side, Eigen:
 
 bool fromStateMessage(const cloth_sim::ClothState& message, int max_side, Eigen::Matrix3Xd* positions_m,
                       std::vector<std::uint8_t>* active, std::string* error) {
-  // Compared as signed 64-bit: a max_side below 2 must refuse every grid, not wrap to 4 billion.
-  const auto side_ok = [max_side](std::uint32_t side) {
-    return side >= 2 && static_cast<std::int64_t>(side) <= max_side;
-  };
-  if (!side_ok(message.rows) || !side_ok(message.cols)) {
-    *error = "rows x cols = " + std::to_string(message.rows) + " x " + std::to_string(message.cols) +
-             ": each must be in [2, " + std::to_string(max_side) + "]";
+  if (std::string why = undrawableReason(message, max_side); !why.empty()) {
+    *error = std::move(why);
     return false;
   }
-  const std::size_t count = static_cast<std::size_t>(message.rows) * message.cols;
-  if (message.positions.size() != count) {
-    *error = std::to_string(message.positions.size()) + " positions for a " + std::to_string(message.rows) + " x " +
-             std::to_string(message.cols) + " grid";
-    return false;
-  }
-  positions_m->resize(3, static_cast<Eigen::Index>(count));
-  for (std::size_t i = 0; i < count; ++i) {
+  positions_m->resize(3, static_cast<Eigen::Index>(message.positions.size()));
+  for (std::size_t i = 0; i < message.positions.size(); ++i) {
     const geometry_msgs::Point& p = message.positions[i];
-    if (!drawablePosition(p)) {
-      std::ostringstream reason;
-      reason << "position " << i << " is not finite or beyond " << kMaxDrawnCoordinate_m << " m on an axis";
-      *error = reason.str();
-      return false;
-    }
     positions_m->col(static_cast<Eigen::Index>(i)) << p.x, p.y, p.z;
-  }
-  if (!message.active.empty() && message.active.size() != count) {
-    *error = std::to_string(message.active.size()) + " active flags for " + std::to_string(count) + " particles";
-    return false;
-  }
-  const auto flag = std::find_if(message.active.begin(), message.active.end(), [](std::uint8_t a) { return a > 1; });
-  if (flag != message.active.end()) {
-    *error = "active[" + std::to_string(flag - message.active.begin()) + "] = " + std::to_string(*flag) +
-             ": must be 0 or 1";
-    return false;
   }
   *active = message.active;
   return true;

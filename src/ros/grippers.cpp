@@ -1,12 +1,12 @@
 #include "cloth_sim/ros/grippers.h"
 
 #include "cloth_sim/ros/conversions.h"
-#include "cloth_sim/ros/ros_time.h"
 
 #include <geometry_msgs/WrenchStamped.h>
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <utility>
 #include <vector>
@@ -69,10 +69,10 @@ bool Grippers::onAttach(cloth_sim::Attach::Request& request, cloth_sim::Attach::
   // s old there), or now if that is later: while paused the next frame's end is past (the node re-anchors
   // its clock at ~pause false) unless ~step ran ahead of the clock, whose next ~step takes it there.
   const ros::Time first_look = std::max(ros::Time::now(), next_frame_end_());
-  if (const double age_s = secondsBetween(stamp, first_look); !stamp.isZero() && age_s > kLostAfter_s) {
+  if (const std::optional<double> age_s = staleAge_s(stamp, first_look)) {
     std::ostringstream message;
-    message << name << ": the newest transform of frame '" << request.frame << "' is " << age_s
-            << " s old at the next frame's end (a gripper follows a frame at most " << kLostAfter_s << " s stale)";
+    message << name << ": the newest transform of frame '" << request.frame << "' is " << *age_s
+            << " s old at the next frame's end (a gripper follows a frame at most " << kFrameLostAfter_s << " s stale)";
     response.message = message.str();
     return true;
   }
@@ -112,11 +112,11 @@ void Grippers::beforeFrame(const ros::Time& frame_end) {
       held.lost_reason = "tf: " + why;
       continue;  // no new pose: the core holds it where it was last seen
     }
-    // A static transform (stamp 0) is never stale.
-    held.lost = !stamp.isZero() && secondsBetween(stamp, frame_end) > kLostAfter_s;
+    const std::optional<double> age_s = staleAge_s(stamp, frame_end);
+    held.lost = age_s.has_value();
     if (held.lost) {
       std::ostringstream reason;
-      reason << "its newest transform is " << secondsBetween(stamp, frame_end) << " s old";
+      reason << "its newest transform is " << *age_s << " s old";
       held.lost_reason = reason.str();
       continue;
     }

@@ -1,13 +1,13 @@
 #include "cloth_sim/ros/robot_colliders.h"
 
 #include "cloth_sim/core/options.h"
-#include "cloth_sim/ros/ros_time.h"
 
 #include <tinyxml2.h>
 #include <urdf/model.h>
 
 #include <map>
 #include <set>
+#include <optional>
 #include <sstream>
 #include <utility>
 
@@ -143,9 +143,9 @@ void FrameColliderInputs::beforeFrame(const ros::Time& frame_end) {
       problems_[c] = "tf: " + why;
       continue;
     }
-    if (!stamp.isZero() && secondsBetween(stamp, frame_end) > kLostAfter_s) {
+    if (const std::optional<double> age_s = staleAge_s(stamp, frame_end)) {
       std::ostringstream reason;
-      reason << "its newest transform is " << secondsBetween(stamp, frame_end) << " s old";
+      reason << "its newest transform is " << *age_s << " s old";
       problems_[c] = reason.str();
       continue;
     }

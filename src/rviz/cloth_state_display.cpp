@@ -125,36 +125,17 @@ void ClothStateDisplay::update(float /*wall_dt*/, float /*ros_dt*/) {
 }
 
 bool ClothStateDisplay::draw(const cloth_sim::ClothState& message, bool redraw) {
+  // The same rule cloth_viewer's fromStateMessage applies.
+  if (const std::string why = undrawableReason(message, core::OptionLimits::kMaxGridSide); !why.empty()) {
+    setStatus(rviz::StatusProperty::Error, "Message", QString::fromStdString(why + ": not drawn"));
+    return false;
+  }
   const std::uint32_t rows = message.rows;
   const std::uint32_t cols = message.cols;
-  const auto side_ok = [](std::uint32_t side) { return side >= 2 && side <= core::OptionLimits::kMaxGridSide; };
-  if (!side_ok(rows) || !side_ok(cols) || message.positions.size() != static_cast<std::size_t>(rows) * cols) {
-    setStatus(rviz::StatusProperty::Error, "Message",
-              QString("%1 positions for a %2 x %3 grid (each side must be in [2, %4]): not drawn")
-                  .arg(message.positions.size())
-                  .arg(rows)
-                  .arg(cols)
-                  .arg(core::OptionLimits::kMaxGridSide));
-    return false;
-  }
   const std::size_t count = message.positions.size();
-  // The same flags cloth_viewer accepts (fromStateMessage): none, or one 0 or 1 per particle.
-  const bool flags_ok = message.active.empty() ||
-                        (message.active.size() == count &&
-                         std::all_of(message.active.begin(), message.active.end(), [](std::uint8_t a) { return a <= 1; }));
-  if (!flags_ok) {
-    setStatus(rviz::StatusProperty::Error, "Message",
-              QString("%1 active flags for %2 particles, each 0 or 1: not drawn").arg(message.active.size()).arg(count));
-    return false;
-  }
   std::vector<Eigen::Vector3f> positions(count);
   for (std::size_t i = 0; i < count; ++i) {
     const geometry_msgs::Point& p = message.positions[i];
-    if (!drawablePosition(p)) {
-      setStatus(rviz::StatusProperty::Error, "Message",
-                QString("position %1 is not finite or beyond %2 m on an axis: not drawn").arg(i).arg(kMaxDrawnCoordinate_m));
-      return false;
-    }
     positions[i] = Eigen::Vector3f(static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z));
   }
   Ogre::Vector3 position;

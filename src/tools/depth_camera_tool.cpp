@@ -19,8 +19,10 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <optional>
 #include <iostream>
+#include <map>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -96,60 +98,73 @@ bool parseArguments(int argc, char** argv, ToolOptions* options, bool* help, std
   options->camera.name = "tool";
   options->camera.frame = "tool_optical";
   *help = false;
+  // Every option that takes a value, with what reads it: "" when the value reads, else why not.
+  const auto integer = [](int* target) {
+    return [target](const std::string& value) -> std::string {
+      const auto parsed = parseInt(value);
+      if (!parsed) return "not a valid value";
+      *target = *parsed;
+      return "";
+    };
+  };
+  // A grid side the scene's limits allow; 0 or less was once ignored silently (the scene's own size ran).
+  const auto side = [](std::optional<int>* target) {
+    return [target](const std::string& value) -> std::string {
+      const auto parsed = parseInt(value);
+      if (!parsed || *parsed < core::OptionLimits::kMinGridSide || *parsed > core::OptionLimits::kMaxGridSide) {
+        return "takes a whole number in [" + std::to_string(core::OptionLimits::kMinGridSide) + ", " +
+               std::to_string(core::OptionLimits::kMaxGridSide) + "]";
+      }
+      *target = *parsed;
+      return "";
+    };
+  };
+  const auto vector = [](Eigen::Vector3d* target) {
+    return [target](const std::string& value) -> std::string {
+      return parseVector(value, target) ? "" : "not a valid value";
+    };
+  };
+  const auto text = [](std::string* target) {
+    return [target](const std::string& value) -> std::string {
+      *target = value;
+      return "";
+    };
+  };
+  const std::map<std::string, std::function<std::string(const std::string&)>> setters = {
+      {"--scene", text(&options->scene)},           {"--rows", side(&options->rows)},
+      {"--cols", side(&options->cols)},             {"--frames", integer(&options->frames)},
+      {"--repeat", integer(&options->repeat)},      {"--width", integer(&options->camera.width)},
+      {"--height", integer(&options->camera.height)}, {"--eye", vector(&options->eye_m)},
+      {"--target", vector(&options->target_m)},     {"--out", text(&options->out_dir)}};
+  std::map<std::string, std::string> typed;  // each option's value as typed, for the messages below
   for (int i = 1; i < argc; ++i) {
     const std::string flag = argv[i];
     if (flag == "--help" || flag == "-h") {
       *help = true;
       return true;
     }
+    const auto setter = setters.find(flag);
+    if (setter == setters.end()) {
+      *error = "unknown option " + flag;
+      return false;
+    }
     if (i + 1 >= argc) {
       *error = flag + " needs a value";
       return false;
     }
     const std::string value = argv[++i];
-    bool ok = true;
-    const auto integer = [&](int* target) {
-      const auto parsed = parseInt(value);
-      ok = parsed.has_value();
-      if (ok) *target = *parsed;
-    };
-    // A grid side the scene's limits allow; 0 or less was once ignored silently (the scene's own size ran).
-    const auto side = [&](std::optional<int>* target) {
-      const auto parsed = parseInt(value);
-      if (!parsed || *parsed < core::OptionLimits::kMinGridSide || *parsed > core::OptionLimits::kMaxGridSide) {
-        *error = flag + " " + value + ": takes a whole number in [" + std::to_string(core::OptionLimits::kMinGridSide) +
-                 ", " + std::to_string(core::OptionLimits::kMaxGridSide) + "]";
-        return false;
-      }
-      *target = *parsed;
-      return true;
-    };
-    if (flag == "--scene") {
-      options->scene = value;
-    } else if (flag == "--rows") {
-      if (!side(&options->rows)) return false;
-    } else if (flag == "--cols") {
-      if (!side(&options->cols)) return false;
-    } else if (flag == "--frames") {
-      integer(&options->frames);
-    } else if (flag == "--repeat") {
-      integer(&options->repeat);
-    } else if (flag == "--width") {
-      integer(&options->camera.width);
-    } else if (flag == "--height") {
-      integer(&options->camera.height);
-    } else if (flag == "--eye") {
-      ok = parseVector(value, &options->eye_m);
-    } else if (flag == "--target") {
-      ok = parseVector(value, &options->target_m);
-    } else if (flag == "--out") {
-      options->out_dir = value;
-    } else {
-      *error = "unknown option " + flag;
+    const std::string problem = setter->second(value);
+    if (!problem.empty()) {
+      *error = flag + " " + value + ": " + problem;
       return false;
     }
-    if (!ok) {
-      *error = flag + " " + value + ": not a valid value";
+    typed[flag] = value;
+  }
+  // Named as the user typed them (the scene's validation would name cameras[0].width).
+  for (const auto& [flag, pixels] : {std::pair{"--width", options->camera.width}, std::pair{"--height", options->camera.height}}) {
+    if (pixels < 1 || pixels > core::CameraLimits::kMaxImageSide) {
+      *error = std::string(flag) + " " + std::to_string(pixels) + ": takes a whole number of pixels in [1, " +
+               std::to_string(core::CameraLimits::kMaxImageSide) + "]";
       return false;
     }
   }
@@ -167,6 +182,17 @@ bool parseArguments(int argc, char** argv, ToolOptions* options, bool* help, std
     *error = "--frames " + std::to_string(options->frames) + ": takes a whole number in [0, " +
              std::to_string(kMaxSettleFrames) + "]";
     return false;
+  }
+  // Within the scene's coordinate limit: from 1e160 m away the view direction's length overflows, and the
+  // look-at rotation came out zero or NaN (an empty picture, and "nan" in camera.json, exit 0).
+  for (const auto& [flag, point] : {std::pair{"--eye", &options->eye_m}, std::pair{"--target", &options->target_m}}) {
+    if (point->cwiseAbs().maxCoeff() > core::OptionLimits::kMaxCoordinate_m) {
+      std::ostringstream out;
+      out << flag << " " << typed[flag] << ": each coordinate within +-" << core::OptionLimits::kMaxCoordinate_m
+          << " m (the scene's limit)";
+      *error = out.str();
+      return false;
+    }
   }
   if ((options->target_m - options->eye_m).norm() < kMinViewDistance_m) {
     *error = "--eye and --target are the same point: the camera has no direction to look in";

@@ -348,15 +348,40 @@ TEST(ClothBenchTerms, AMaterialScenesTermsAreItsModuliAndEachOneChangesTheCloth)
   EXPECT_NE(output.find("self-collision"), std::string::npos) << output;
 }
 
-/// Runs cloth_bench with each {arguments, message}: each must exit 2 (a usage error) saying `message`.
-void expectRefused(const std::vector<std::pair<std::string, std::string>>& refused) {
+/// Runs `executable` with each {arguments, message}: each must exit 2 (a usage error) saying `message`.
+void expectRefusedBy(const std::string& executable, const std::vector<std::pair<std::string, std::string>>& refused) {
   for (const auto& [arguments, message] : refused) {
-    const std::string command = std::string(CLOTH_BENCH_EXECUTABLE) + " " + arguments + " 2>&1";
+    const std::string command = executable + " " + arguments + " 2>&1";
     int status = -1;
     const std::string output = runCommand(command, &status);
     EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 2) << command << "\n" << output;
     EXPECT_NE(output.find(message), std::string::npos) << command << "\n" << output;
   }
+}
+
+/// expectRefusedBy for cloth_bench.
+void expectRefused(const std::vector<std::pair<std::string, std::string>>& refused) {
+  expectRefusedBy(CLOTH_BENCH_EXECUTABLE, refused);
+}
+
+TEST(DepthCameraToolCommandLine, RefusesAViewItCannotComputeAndNamesOptionsAsTyped) {
+  // An audit's: --target 0,1e160,1 overflowed the view direction's length, and the tool rendered an empty
+  // picture and wrote "nan" into camera.json, exit 0; --width 0 was named cameras[0].width, and an unknown
+  // option last on the line "needs a value".
+  expectRefusedBy(DEPTH_CAMERA_TOOL_EXECUTABLE, {
+      {"--eye 0,-2,1 --target 0,1e160,1", "--target 0,1e160,1: each coordinate within +-1000 m"},
+      {"--eye 1e308,0,0 --target -1e308,0,0", "--eye 1e308,0,0: each coordinate within +-1000 m"},
+      {"--eye 0,-1000.0000001,1", "--eye 0,-1000.0000001,1: each coordinate within +-1000 m"},
+      {"--width 0", "--width 0: takes a whole number of pixels in [1, 4096]"},
+      {"--height 4097", "--height 4097: takes a whole number of pixels in [1, 4096]"},
+      {"--bogus", "unknown option --bogus"},
+  });
+  // The limits themselves are a view: 1000 m away, looking back at the cloth.
+  int status = -1;
+  const std::string output = runCommand(std::string(DEPTH_CAMERA_TOOL_EXECUTABLE) +
+                                            " --rows 4 --cols 4 --frames 0 --repeat 1 --width 8 --height 8 --eye 0,-1000,1 2>&1",
+                                        &status);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << output;
 }
 
 TEST(ClothBenchValidate, TheDrapeTakesSceneKeysAndTheSagFollowsThem) {

@@ -278,6 +278,23 @@ TEST(BadSceneFile, AnExplicitTagThatDoesNotFitTheKeyIsRefused) {
   EXPECT_EQ(options.pins.front(), "0");
 }
 
+TEST(BadSceneFile, AQuotedNumberOrBoolIsAStringAndRefusedWhereANumberOrBoolIsExpected) {
+  // YAML's core schema makes a quoted scalar a string, as rosparam load does: "true" switched
+  // self-collision on, and '12' made 12 rows.
+  expectRefusalMentions("self_collision: \"true\"\n", "'true' (a string): expected true or false");
+  expectRefusalMentions("mass: '0.5'\n", "'0.5' (a string): expected a number");
+  expectRefusalMentions("rows: '12'\n", "'12' (a string): expected an integer");
+  expectRefusalMentions("gravity: [0, 0, \"-9.81\"]\n", "its [2] = '-9.81' (a string) is not a number");
+  // Where a string is expected, quoted or not is the same.
+  SceneOptions options;
+  std::vector<std::string> errors;
+  const std::string path = writeFile(scratchDir("quoted"), "strings.yaml",
+                                     "name: \"123\"\nmaterial: 'denim'\nsubsteps: \"auto\"\npins: [\"top_left\", '5']\n");
+  ASSERT_TRUE(loadSceneFile(path, &options, &errors)) << (errors.empty() ? "" : errors.front());
+  EXPECT_EQ(options.name, "123");
+  EXPECT_EQ(options.pins.back(), "5");
+}
+
 TEST(BadSceneFile, AMissingTextureOrOneThatIsNotARegularFileIsRefused) {
   const std::string dir = scratchDir("texture");
   EXPECT_TRUE(mentions(refusal(writeFile(dir, "missing.yaml", "texture: no_such.png\n")), "no_such.png"));

@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -199,6 +200,63 @@ TEST(Outline, AParticleInsideButInNoKeptTriangleIsRemovedLikeOneOutside) {
   const std::vector<std::string> problems = validateSceneOptions(scene);
   ASSERT_EQ(problems.size(), 1u);
   EXPECT_EQ(problems.front(), "pins: particle 110 is outside the outline (or in none of the triangles it keeps)");
+}
+
+/// The even-odd rule over every edge, written plainly: a particle within `tolerance` of an edge is inside.
+bool insideByEveryEdge(const std::vector<Eigen::Vector2d>& polygon, const Eigen::Vector2d& point, double tolerance) {
+  bool inside = false;
+  for (std::size_t i = 0; i < polygon.size(); ++i) {
+    const Eigen::Vector2d& a = polygon[i];
+    const Eigen::Vector2d& b = polygon[(i + polygon.size() - 1) % polygon.size()];
+    const double t = std::clamp((point - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
+    if ((a + t * (b - a) - point).norm() <= tolerance) return true;
+    if ((a.y() > point.y()) != (b.y() > point.y()) &&
+        point.x() < (b.x() - a.x()) * (point.y() - a.y()) / (b.y() - a.y()) + a.x()) {
+      inside = !inside;
+    }
+  }
+  return inside;
+}
+
+TEST(Outline, AManyCorneredPolygonKeepsWhatEveryEdgeSays) {
+  // outlineMask tests each row of particles only against the edges whose v range reaches it (a 4096-corner
+  // outline took seconds to load at 256 x 256): the mask must be the one every edge gives. A star of 1000
+  // corners, and a diamond whose corners and edges pass exactly through particles (the on-the-line rule).
+  constexpr int kSide = 41;
+  constexpr double kSpacing_m = 1.0 / (kSide - 1);
+  std::vector<Eigen::Vector2d> star;
+  constexpr int kStarCorners = 1000;
+  for (int k = 0; k < kStarCorners; ++k) {
+    const double angle = 2.0 * kPi * k / kStarCorners;
+    const double radius_m = k % 2 == 0 ? 0.45 : 0.3;
+    star.emplace_back(0.5 + radius_m * std::cos(angle), 0.5 + radius_m * std::sin(angle));
+  }
+  const std::vector<Eigen::Vector2d> diamond = {{0.5, 0.0}, {1.0, 0.5}, {0.5, 1.0}, {0.0, 0.5}};
+  for (const std::vector<Eigen::Vector2d>& polygon : {star, diamond}) {
+    SceneOptions scene;
+    scene.rows = scene.cols = kSide;
+    scene.width_m = scene.height_m = 1.0;
+    scene.pins = {};
+    const ClothGrid full = Simulation(scene).grid();
+    scene.outline.shape = OutlineOptions::Shape::kPolygon;
+    scene.outline.vertices_m = polygon;
+    std::vector<bool> inside(static_cast<std::size_t>(kSide) * kSide);
+    for (int r = 0; r < kSide; ++r) {
+      for (int c = 0; c < kSide; ++c) {
+        inside[static_cast<std::size_t>(r) * kSide + c] =
+            insideByEveryEdge(polygon, Eigen::Vector2d(c * kSpacing_m, r * kSpacing_m), 1e-9 * kSpacing_m);
+      }
+    }
+    // Kept: a corner of a triangle whose three corners are inside.
+    std::vector<std::uint8_t> expected(inside.size(), 0);
+    for (std::size_t t = 0; t + 2 < full.triangles.size(); t += 3) {
+      const int a = full.triangles[t], b = full.triangles[t + 1], c = full.triangles[t + 2];
+      if (inside[a] && inside[b] && inside[c]) expected[a] = expected[b] = expected[c] = 1;
+    }
+    const std::vector<std::uint8_t> mask = outlineMask(scene);
+    EXPECT_EQ(mask, expected) << polygon.size() << " corners";
+    EXPECT_GT(std::count(mask.begin(), mask.end(), 1), kSide * kSide / 4) << polygon.size() << " corners";
+  }
 }
 
 TEST(Outline, EnergiesCountOnlyTheCloth) {

@@ -13,11 +13,13 @@ import dynamic_reconfigure.client
 import rospy
 import rostest
 from cloth_sim.msg import ClothState
+from geometry_msgs.msg import Vector3Stamped
 from rosgraph_msgs.msg import Log
 
 NODE = "/cloth_node"
 TIMEOUT_S = 20.0
 FRAMES_ALIVE = 10
+BLOWN_M = 0.02  # the bottom corner's y once a 3 m/s ~wind along +y blows (it hangs at y = 0)
 
 
 class ReconfigureRefusals(unittest.TestCase):
@@ -112,6 +114,20 @@ class ReconfigureRefusals(unittest.TestCase):
         self.assertEqual(defaults["integrator"], "implicit_euler")
         self.assertEqual(defaults["substeps"], 0)
 
+    def test_z_setting_a_wind_slider_to_what_it_shows_stops_a_wind_message(self):
+        # An audit's: after a ~wind of 3 m/s the sliders still read 0, and `dynparam set ... wind_y 0` was
+        # no change: the answer read 3 and the wind blew on. A request that changes no slider now sets the
+        # wind to the sliders'. Last (z): it changes the wind the refusals above compare.
+        wind = rospy.Publisher(NODE + "/wind", Vector3Stamped, queue_size=1, latch=True)
+        message = Vector3Stamped()
+        message.vector.y = 3.0
+        wind.publish(message)
+        self.wait_for(lambda: self.states and self.states[-1].positions[-1].y > BLOWN_M,
+                      "the ~wind to blow the cloth along +y")
+        self.assertEqual(self.client.get_configuration(timeout=TIMEOUT_S)["wind_y"], 0.0)
+        answer = self.client.update_configuration({"wind_y": 0.0})
+        self.assertEqual(answer["wind_y"], 0.0, "setting wind_y 0 left the ~wind's 3 m/s in force")
+        wind.unregister()
 
 if __name__ == "__main__":
     rospy.init_node("test_reconfigure_bad")

@@ -303,9 +303,11 @@ class Simulation {
   /// attached, detached or slipping, a link first seen change it. Not the bodies' poses: a body that moves
   /// drives the cloth (isDriven), and one that holds still must not wake it by its rounding.
   std::uint64_t driveFingerprint() const;
-  /// Whether the cloth sleeps through the coming frame: sleep_speed is on, the last sleepAfterFrames
-  /// frames were calm, nothing drives it or changed since, and it is not a frame the sleeping cloth is
-  /// checked on (sleepCheckFrames).
+  /// Whether the cloth is asleep coming into this frame: sleep_speed is on, the last sleepAfterFrames
+  /// frames were calm, and nothing drives it or changed since.
+  bool restsAsleep(bool driven, std::uint64_t drive) const;
+  /// Whether the cloth sleeps through the coming frame: it rests asleep and this is not a frame the
+  /// sleeping cloth is checked on (sleepCheckFrames).
   bool sleepsThrough(bool driven, std::uint64_t drive) const;
   /// Advances time and frame number over a frame the cloth sleeps through; *report says so.
   void sleepThroughFrame(FrameReport* report);

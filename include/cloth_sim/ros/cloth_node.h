@@ -155,6 +155,8 @@ class ClothNode {
   /// After a reset or a replaced scene or state: the next publish sends everything, the mesh too, even at
   /// a stamp already sent (a held /clock).
   void forgetPublished();
+  /// The ~mesh rate for the running scene: ~mesh_rate if it was given, else the scene's frame rate, Hz.
+  double meshRate_hz() const;
   /// ~state alone, while someone subscribes and every field is finite; counted for the diagnostics' rate.
   void publishState(const ros::Time& stamp);
   /// The ROS time at which frame `frame` ends (from the anchor), or now if the clock is not anchored yet.
@@ -204,6 +206,9 @@ class ClothNode {
   /// The options in force as a reconfigure config.
   void fillConfig(cloth_sim::ClothConfig* config) const;
   void pushConfig();
+  /// Whether a reconfigure request changes no slider: every value is the one the sliders last showed (the
+  /// options in force, the wind sliders' reconfigure_wind_).
+  bool changesNoSlider(const cloth_sim::ClothConfig& config) const;
   void diagnose(diagnostic_updater::DiagnosticStatusWrapper& status);
 
   ros::NodeHandle nh_;
@@ -267,7 +272,10 @@ class ClothNode {
   /// Frames are due at anchor_time_ + k / frame_rate (ROS time: wall clock, or /clock under use_sim_time).
   ros::Time anchor_time_;
   ros::Time last_tick_;  ///< to notice /clock going backwards
-  std::unique_ptr<MeshSchedule> mesh_schedule_;  ///< at ~mesh_rate
+  std::unique_ptr<MeshSchedule> mesh_schedule_;  ///< at ~mesh_rate, or the scene's frame rate (meshRate_hz)
+  /// ~mesh_rate as given at start-up, Hz; none: the running scene's frame rate, which ~load_scene and
+  /// ~load_state may change.
+  std::optional<double> mesh_rate_given_hz_;
   std::uint64_t anchor_frame_ = 0;
   bool anchored_ = false;
 

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "cloth_sim/core/kinematics.h"
+#include "cloth_sim/ros/ros_time.h"
 
 #include <geometry_msgs/TransformStamped.h>
 #include <ros/time.h>
@@ -11,9 +12,22 @@
 #include <tf2_geometry_msgs/tf2_geometry_msgs.h>
 #include <tf2_ros/buffer.h>
 
+#include <optional>
 #include <string>
 
 namespace cloth_sim {
+
+/// How long a tf frame the cloth follows (a gripper's, a robot link collider's) may go without a new
+/// transform before it counts as lost: the cloth then holds it where it was last seen, s.
+inline constexpr double kFrameLostAfter_s = 0.5;
+
+/// How old a transform stamped `stamp` is at `at`, s, when that is more than kFrameLostAfter_s; nothing
+/// when it is fresher, or static (stamp 0: never stale).
+inline std::optional<double> staleAge_s(const ros::Time& stamp, const ros::Time& at) {
+  const double age_s = secondsBetween(stamp, at);
+  if (stamp.isZero() || age_s <= kFrameLostAfter_s) return std::nullopt;
+  return age_s;
+}
 
 /// A transform message as a core pose (world frame of the simulation: the transform's parent frame).
 core::Pose toPose(const geometry_msgs::TransformStamped& transform);

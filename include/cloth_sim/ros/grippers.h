@@ -25,9 +25,6 @@ class Grippers {
   /// ~gripper_<id>/wrench: geometry_msgs/WrenchStamped in the gripper's frame.
   static constexpr const char* kWrenchTopicPrefix = "gripper_";
   static constexpr const char* kWrenchTopicSuffix = "/wrench";
-  /// A gripper frame whose newest transform is older than this at a frame's time counts as lost: the
-  /// particles stay where it was last seen and the diagnostics WARN naming it, s.
-  static constexpr double kLostAfter_s = 0.5;
 
   /// `simulation` returns the running simulation (the node replaces it on ~load_scene). `next_frame_end`
   /// returns the time the node's next frame ends as its frame clock stands, the time its next beforeFrame
@@ -52,7 +49,7 @@ class Grippers {
     std::string frame;
     ros::Publisher wrench;
     ros::Time last_seen;          ///< stamp of the newest transform of `frame` used
-    bool lost = false;            ///< the newest transform is older than kLostAfter_s (or none)
+    bool lost = false;            ///< the newest transform is older than kFrameLostAfter_s (or none)
     std::string lost_reason;
     std::uint64_t slipped = 0;    ///< particles that slipped out so far
   };

@@ -27,9 +27,6 @@ bool collidersFromUrdf(const std::string& urdf_xml, std::vector<core::FrameColli
 
 class FrameColliderInputs {
  public:
-  /// A frame whose newest transform is older than this at a frame's time counts as lost, s.
-  static constexpr double kLostAfter_s = 0.5;
-
   FrameColliderInputs(const FrameInputs& frames, std::string world_frame, std::function<core::Simulation&()> simulation);
 
   /// Before a frame that ends at `frame_end`: poses every frame collider from tf (at that time, or tf's
