@@ -223,7 +223,8 @@ sanitize-run: build
 	  rostest cloth_sim $$t > $$logs/rostest-$${t%.test}.out 2>&1 || { rc=1; tail -30 $$logs/rostest-$${t%.test}.out; }; \
 	  grep -E '^ \* (RESULT|TESTS|ERRORS|FAILURES):' $$logs/rostest-$${t%.test}.out || true; \
 	done; \
-	reports=$$(find $$logs -name 'asan*' -o -name 'ubsan*'); \
+	reports="$$(find $$logs -name 'asan*' -o -name 'ubsan*') $$(grep -l -E 'runtime error:|ERROR: (Address|Leak)Sanitizer' $$logs/*.out 2>/dev/null || true)"; \
+	reports=$$(echo $$reports); \
 	if [ -n "$$reports" ]; then echo "sanitize: sanitizer reports:"; for f in $$reports; do echo "--- $$f"; head -40 "$$f"; done; rc=1; fi; \
 	if [ $$rc = 0 ]; then echo "==> sanitize: clean (no ASan/UBSan/LSan report, all tests passed)"; fi; \
 	exit $$rc

@@ -156,22 +156,26 @@ void ClothNode::fillConfig(cloth_sim::ClothConfig* config) const {
 
 void ClothNode::pushConfig() {
   if (!reconfigure_) return;
-  cloth_sim::ClothConfig config;
+  // From the generated defaults, not default-constructed: the generated class leaves its group's copy of
+  // each field uninitialised, and updateConfig copies it (UBSan: a bool loaded as 19, under make sanitize).
+  cloth_sim::ClothConfig config = cloth_sim::ClothConfig::__getDefault__();
   fillConfig(&config);
   reconfigure_wind_ = Eigen::Vector3d(config.wind_x, config.wind_y, config.wind_z);
   reconfigure_->updateConfig(config);
 }
 
 bool ClothNode::changesNoSlider(const cloth_sim::ClothConfig& config) const {
-  cloth_sim::ClothConfig shown;
+  cloth_sim::ClothConfig shown = cloth_sim::ClothConfig::__getDefault__();  // see pushConfig
   fillConfig(&shown);
   shown.wind_x = reconfigure_wind_.x();
   shown.wind_y = reconfigure_wind_.y();
   shown.wind_z = reconfigure_wind_.z();
-  dynamic_reconfigure::Config requested_message, shown_message;
-  config.__toMessage__(requested_message);
+  dynamic_reconfigure::Config requested, shown_message;
+  config.__toMessage__(requested);
   shown.__toMessage__(shown_message);
-  return requested_message == shown_message;
+  // The sliders' values only, not the groups' bookkeeping.
+  return requested.bools == shown_message.bools && requested.ints == shown_message.ints &&
+         requested.strs == shown_message.strs && requested.doubles == shown_message.doubles;
 }
 
 }  // namespace cloth_sim
